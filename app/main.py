@@ -1,0 +1,25 @@
+"""``scribbleseg-app``: the desktop application's entry point."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="scribbleseg-app", description="Paint scribbles, segment a collection.")
+    parser.add_argument("path", nargs="?", help="a folder of meshes, one mesh, or a saved session")
+    args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+
+    from PySide6.QtWidgets import QApplication
+
+    from app.main_window import MainWindow
+
+    qapp = QApplication.instance() or QApplication(sys.argv[:1])
+    window = MainWindow(args.path)
+    window.show()
+    return qapp.exec()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,35 @@
+"""Shared fixtures: meshes built in code and the PSB data (skipped where absent)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+
+def icosphere(subdivisions: int = 3, radius: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """A closed genus-0 sphere mesh, V (n, 3) float64, F (m, 3) int64."""
+    import trimesh
+
+    s = trimesh.creation.icosphere(subdivisions=subdivisions, radius=radius)
+    return np.asarray(s.vertices, dtype=np.float64), np.asarray(s.faces, dtype=np.int64)
+
+
+@pytest.fixture
+def sphere():
+    return icosphere(3)
+
+
+@pytest.fixture(scope="session")
+def psb_dir() -> Path:
+    from scribbleseg_core.psb import default_psb_dir
+
+    root = default_psb_dir()
+    if root is None:
+        pytest.skip("PSB data not found: expected ../shared/psb beside the project (or $SCRIBBLESEG_PSB)")
+    return root
