@@ -35,6 +35,83 @@ def _cmd_info(args) -> int:
     return status
 
 
+def _progress(items, quiet: bool, desc: str):
+    if quiet:
+        return items
+    from tqdm import tqdm
+
+    return tqdm(items, desc=desc, unit="shape", file=sys.stderr, leave=False)
+
+
+def _write_outputs(out: Path, mesh, labels, label_names, quiet: bool) -> None:
+    from scribbleseg_core.export import export_labeled_mesh
+    from scribbleseg_core.labels import LabelSet
+
+    file_labels = mesh.labels_to_file(labels)
+    export_labeled_mesh(out, mesh.name, mesh.V_file, mesh.F_file, file_labels,
+                        LabelSet.from_names(label_names), formats=["seg", "ply"])
+
+
+def _cmd_segment(args) -> int:
+    import time
+
+    from scribbleseg_core.collection import find_collection
+    from scribbleseg_core.mesh_io import load_mesh
+    from scribbleseg_core.model_io import save_model
+    from scribbleseg_core.optimize import SegmentParams, predict_shape, segment_collection
+    from scribbleseg_core.shape import prepare_shape
+
+    t0 = time.perf_counter()
+    coll = find_collection(args.folder)
+    if not coll.scribbles:
+        raise ScribblesegError(f"no scribble files in {args.folder} or its scribbles/ folder")
+    out = Path(args.out)
+    shapes = []
+    for path in _progress(coll.meshes, args.quiet, "features"):
+        mesh = load_mesh(path)
+        scr = coll.scribbles.get(path)
+        if scr is not None and scr.num_faces != mesh.num_file_faces:
+            raise ScribblesegError(f"scribbles for {path.name} have num_faces {scr.num_faces}, "
+                                   f"the mesh has {mesh.num_file_faces}")
+        shapes.append(prepare_shape(mesh, coll.face_labels(path), num_patches=args.patches))
+    params = SegmentParams(refine=not args.no_refine)
+    last = None
+    for snap in segment_collection(shapes, coll.label_names, params):
+        last = snap
+        if not args.quiet:
+            e = snap.energy
+            print(f"  iteration {snap.iteration} {snap.phase:<8} E = {e.total:.1f} "
+                  f"(scribble {e.scribble:.1f}, network {e.network:.1f}, feature {e.feature:.2f}) "
+                  f"{snap.seconds:.1f} s", file=sys.stderr)
+    trained = [s for s in shapes if s.is_scribbled]
+    for s, labels in zip(trained, last.labels):
+        _write_outputs(out, s.mesh, labels, coll.label_names, args.quiet)
+    for s in _progress([s for s in shapes if not s.is_scribbled], args.quiet, "predict"):
+        labels, _ = predict_shape(last.model, s)
+        _write_outputs(out, s.mesh, labels, coll.label_names, args.quiet)
+    save_model(out / "model", last.model)
+    if not args.quiet:
+        print(f"segmented {len(trained)} scribbled and predicted {len(shapes) - len(trained)} shapes "
+              f"in {time.perf_counter() - t0:.1f} s; wrote {out}", file=sys.stderr)
+    return 0
+
+
+def _cmd_predict(args) -> int:
+    from scribbleseg_core.mesh_io import load_mesh
+    from scribbleseg_core.model_io import load_model
+    from scribbleseg_core.optimize import predict_shape
+    from scribbleseg_core.shape import prepare_shape
+
+    model = load_model(args.model)
+    out = Path(args.out)
+    for path in _progress(args.meshes, args.quiet, "predict"):
+        mesh = load_mesh(path)
+        labels, _ = predict_shape(model, prepare_shape(mesh, num_patches=args.patches),
+                                  refine=False if args.no_refine else None)
+        _write_outputs(out, mesh, labels, model.label_names, args.quiet)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="scribbleseg", description="Scribble-based segmentation of 3D shape collections."
@@ -44,6 +121,23 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("info", help="report what a mesh or scribble file holds and what was repaired")
     p.add_argument("files", nargs="+", help="mesh (.off .obj .ply .stl .glb .gltf) or scribble (.json) files")
     p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("segment", help="segment a folder of meshes from its scribble files; predict its unscribbled meshes")
+    p.add_argument("folder", help="meshes plus scribble files <name>.json (beside them or in scribbles/)")
+    p.add_argument("--out", required=True, help="output folder: <mesh>.seg, <mesh>.ply, model/")
+    p.add_argument("--patches", type=int, default=50, help="primitive patches per shape (default 50)")
+    p.add_argument("--no-refine", action="store_true", help="keep the paper's patch-level result")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=_cmd_segment)
+
+    p = sub.add_parser("predict", help="segment meshes with a trained model")
+    p.add_argument("model", help="a model folder written by 'segment' (OUT/model)")
+    p.add_argument("meshes", nargs="+")
+    p.add_argument("--out", required=True)
+    p.add_argument("--patches", type=int, default=50)
+    p.add_argument("--no-refine", action="store_true")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(func=_cmd_predict)
     return parser
 
 

@@ -1,0 +1,129 @@
+"""The face classifier: a 4-layer fully connected network (d → h1 → h2 → c), softmax output."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class NetworkParams:
+    """Architecture and training schedule (part of a saved model's metadata)."""
+
+    hidden: tuple[int, int] = (128, 64)
+    epochs: int = 40
+    warm_epochs: int = 15
+    batch_size: int = 1024
+    learning_rate: float = 3e-3
+    weight_decay: float = 1e-4
+    max_faces_per_shape: int = 4000
+    balance_classes: bool = True
+    seed: int = 0
+    threads: int = 2
+
+
+def build_mlp(d: int, c: int, hidden: tuple[int, int]):
+    """``Linear(d,h1) ReLU Linear(h1,h2) ReLU Linear(h2,c)``: logits; softmax applied by callers."""
+    import torch.nn as nn
+
+    h1, h2 = hidden
+    return nn.Sequential(nn.Linear(d, h1), nn.ReLU(), nn.Linear(h1, h2), nn.ReLU(), nn.Linear(h2, c))
+
+
+class FaceClassifier:
+    """Network plus the feature standardization it was trained with.
+
+    Parameters
+    ----------
+    num_inputs : int
+        d, the face descriptor length.
+    num_labels : int
+        c.
+    params : NetworkParams
+    """
+
+    def __init__(self, num_inputs: int, num_labels: int, params: NetworkParams = NetworkParams()):
+        import torch
+
+        self.params = params
+        self.num_inputs = int(num_inputs)
+        self.num_labels = int(num_labels)
+        torch.manual_seed(params.seed)
+        self.net = build_mlp(self.num_inputs, self.num_labels, params.hidden)
+        self.mean = np.zeros(num_inputs)
+        self.std = np.ones(num_inputs)
+        self.trained = False
+
+    def fit(self, X: list[np.ndarray], y: list[np.ndarray], *, warm: bool = False) -> float:
+        """Train on the faces of several shapes.
+
+        Parameters
+        ----------
+        X : list of (m_s, d) float64 ndarray
+        y : list of (m_s,) int ndarray
+            Labels; faces with -1 are skipped.
+        warm : bool
+            Continue from the current weights with ``warm_epochs``; else start over.
+
+        Returns
+        -------
+        float
+            Mean training cross-entropy of the last epoch.
+        """
+        import torch
+
+        p = self.params
+        torch.set_num_threads(p.threads)
+        rng = np.random.default_rng(p.seed)
+        Xs, ys = [], []
+        for Xi, yi in zip(X, y):
+            keep = np.flatnonzero(yi >= 0)
+            if len(keep) > p.max_faces_per_shape:
+                keep = rng.choice(keep, p.max_faces_per_shape, replace=False)
+            Xs.append(Xi[keep])
+            ys.append(yi[keep])
+        Xa, ya = np.concatenate(Xs), np.concatenate(ys).astype(np.int64)
+        if not warm or not self.trained:
+            self.mean, self.std = Xa.mean(0), Xa.std(0) + 1e-8
+            torch.manual_seed(p.seed)
+            self.net = build_mlp(self.num_inputs, self.num_labels, p.hidden)
+        counts = np.bincount(ya, minlength=self.num_labels).astype(float)
+        w = np.where(counts > 0, counts.sum() / np.maximum(counts, 1) / max((counts > 0).sum(), 1), 0.0)
+        weight = torch.from_numpy((w if p.balance_classes else (counts > 0).astype(float)).astype(np.float32))
+        Xt = torch.from_numpy(((Xa - self.mean) / self.std).astype(np.float32))
+        yt = torch.from_numpy(ya)
+        opt = torch.optim.AdamW(self.net.parameters(), lr=p.learning_rate, weight_decay=p.weight_decay)
+        loss_fn = torch.nn.CrossEntropyLoss(weight=weight)
+        epochs = p.warm_epochs if (warm and self.trained) else p.epochs
+        gen = torch.Generator().manual_seed(p.seed)
+        sched = torch.optim.lr_scheduler.OneCycleLR(
+            opt, max_lr=p.learning_rate, total_steps=epochs * ((len(Xt) + p.batch_size - 1) // p.batch_size)
+        )
+        self.net.train()
+        last = 0.0
+        for _ in range(epochs):
+            perm = torch.randperm(len(Xt), generator=gen)
+            total, n = 0.0, 0
+            for s in range(0, len(Xt), p.batch_size):
+                idx = perm[s : s + p.batch_size]
+                opt.zero_grad()
+                loss = loss_fn(self.net(Xt[idx]), yt[idx])
+                loss.backward()
+                opt.step()
+                sched.step()
+                total += loss.item() * len(idx)
+                n += len(idx)
+            last = total / max(n, 1)
+        self.net.eval()
+        self.trained = True
+        return last
+
+    def log_proba(self, X: np.ndarray) -> np.ndarray:
+        """Log class probabilities per face, (m, c) float64 (log-softmax of the logits)."""
+        import torch
+
+        torch.set_num_threads(self.params.threads)
+        with torch.no_grad():
+            Z = torch.from_numpy(((np.asarray(X, dtype=np.float64) - self.mean) / self.std).astype(np.float32))
+            return torch.log_softmax(self.net(Z), dim=1).numpy().astype(np.float64)

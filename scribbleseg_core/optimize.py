@@ -1,0 +1,270 @@
+"""The alternating optimization (the paper's Section 3.2) as a generator of snapshots.
+
+``segment_collection`` yields a frozen :class:`Snapshot` after every step (initial graph
+cut, each network training, each graph cut, the refinement); the caller may stop between
+any two. No GUI code here: the app wraps the generator in a worker thread.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from scribbleseg_core.energy import (
+    EnergyTerms,
+    energy_terms,
+    feature_weights,
+    network_unary,
+    scribble_unary,
+)
+from scribbleseg_core.graphcut import alpha_expansion
+from scribbleseg_core.network import FaceClassifier, NetworkParams
+from scribbleseg_core.patches import nearest_scribble_labels
+from scribbleseg_core.patch_features import PatchEncoder, feature_delta, fit_patch_encoder
+from scribbleseg_core.refine import RefineParams, refine_labels
+from scribbleseg_core.shape import ShapeData
+
+Phase = Literal["graphcut", "train", "refine", "done"]
+
+
+@dataclass(frozen=True)
+class SegmentParams:
+    """Parameters of the whole pipeline.
+
+    Attributes
+    ----------
+    lam : float
+        λ of the feature term (the paper: 1).
+    max_iterations : int
+        Network/graph-cut rounds at most (the paper converges in about 4).
+    tolerance : float
+        Stop when the total energy falls by less than this fraction.
+    refine : bool
+        Run the face-level refinement after convergence.
+    init : {"geodesic", "paper"}
+        The initial graph cut: ``"paper"`` uses eq. 1 alone (uniform cost on unscribbled
+        patches), which has graph cuts' shrinking bias: with short strokes, cutting
+        around a small stroke is cheaper than cutting at the real part boundaries.
+        ``"geodesic"`` adds, for the initial cut only, the area fraction of each patch
+        whose nearest scribble (crease-aware geodesic metric) has another label.
+    """
+
+    lam: float = 1.0
+    max_iterations: int = 6
+    tolerance: float = 1e-3
+    refine: bool = True
+    init: Literal["geodesic", "paper"] = "geodesic"
+    network: NetworkParams = field(default_factory=NetworkParams)
+    refinement: RefineParams = field(default_factory=RefineParams)
+
+
+@dataclass(frozen=True, eq=False)
+class TrainedModel:
+    """What prediction on new shapes needs."""
+
+    classifier: FaceClassifier
+    encoder: PatchEncoder
+    delta: float
+    label_names: tuple[str, ...]
+    params: SegmentParams
+
+
+@dataclass(frozen=True, eq=False)
+class Snapshot:
+    """The state after one step.
+
+    Attributes
+    ----------
+    iteration : int
+        0 for the initial graph cut, then 1, 2, ...
+    phase : {"graphcut", "train", "refine", "done"}
+    energy : EnergyTerms
+        Summed over the collection's scribbled shapes (``network`` NaN before training).
+    labels : tuple of (m_s,) int64 ndarray
+        Current face labels per shape (repaired faces), refined if the refinement ran.
+    patch_labels : tuple of (m_s,) int64 ndarray
+        The paper's patch-level result per shape, on faces.
+    seconds : float
+        Time this step took.
+    model : TrainedModel or None
+        The trained model (from the first training on).
+    """
+
+    iteration: int
+    phase: Phase
+    energy: EnergyTerms
+    labels: tuple[np.ndarray, ...]
+    patch_labels: tuple[np.ndarray, ...]
+    seconds: float
+    model: TrainedModel | None = None
+
+    @property
+    def done(self) -> bool:
+        return self.phase == "done"
+
+
+def _frozen(arrays) -> tuple[np.ndarray, ...]:
+    out = []
+    for a in arrays:
+        a = np.array(a, dtype=np.int64, copy=True)
+        a.flags.writeable = False
+        out.append(a)
+    return tuple(out)
+
+
+def segment_collection(
+    shapes: Sequence[ShapeData],
+    label_names: Sequence[str],
+    params: SegmentParams = SegmentParams(),
+    *,
+    encoder: PatchEncoder | None = None,
+) -> Iterator[Snapshot]:
+    """Minimize ``E = E_scr + E_neu + λ E_fea`` over the scribbled shapes, alternately.
+
+    Parameters
+    ----------
+    shapes : sequence of ShapeData
+        Only shapes with scribbles take part; others are for :func:`predict_shape`.
+    label_names : sequence of str
+        k names; scribble ids index them.
+    params : SegmentParams
+    encoder : PatchEncoder, optional
+        Fit on these shapes when not given.
+
+    Yields
+    ------
+    Snapshot
+        After every step; the last has phase ``"done"`` and carries the model.
+    """
+    shapes = [s for s in shapes if s.is_scribbled]
+    if not shapes:
+        raise ValueError("no shape has scribbles: paint at least one stroke")
+    k = len(label_names)
+    t0 = time.perf_counter()
+    encoder = encoder or fit_patch_encoder([s.X for s in shapes], seed=params.network.seed)
+    desc = [encoder.encode(s.X, s.area, s.patch) for s in shapes]
+    delta = feature_delta(desc, [s.patch_pairs for s in shapes])
+    W = [feature_weights(D, s.patch_pairs, delta, params.lam) for D, s in zip(desc, shapes)]
+    U_scr = [scribble_unary(s.patch, s.scribble, s.scribbled_labels, k) for s in shapes]
+    P = [s.patch_matrix() for s in shapes]
+
+    # (3a) initial graph cuts without the network term
+    if params.init not in ("geodesic", "paper"):
+        raise ValueError(f"init must be 'geodesic' or 'paper'; got {params.init!r}")
+    U_init = U_scr if params.init == "paper" else [U + _geodesic_unary(s, k, w) for U, s, w in zip(U_scr, shapes, W)]
+    y = [alpha_expansion(U, s.patch_pairs, w) for U, s, w in zip(U_init, shapes, W)]
+    energy = _total(y, U_scr, None, shapes, W)
+    faces = [yi[s.patch] for yi, s in zip(y, shapes)]
+    yield Snapshot(0, "graphcut", energy, _frozen(faces), _frozen(faces), time.perf_counter() - t0)
+
+    clf = FaceClassifier(shapes[0].X.shape[1], k, params.network)
+    model = None
+    U_neu = None
+    best = np.inf
+    for it in range(1, params.max_iterations + 1):
+        # (3b) fix Y, train the network on every face with its current label
+        t = time.perf_counter()
+        previous = None if not clf.trained else _state(clf)
+        clf.fit([s.X for s in shapes], faces, warm=clf.trained)
+        logp = [clf.log_proba(s.X) for s in shapes]
+        U_new = [network_unary(Pi, lp) for Pi, lp in zip(P, logp)]
+        e_train = _total(y, U_scr, U_new, shapes, W)
+        if previous is not None and e_train.total > best:
+            _restore(clf, previous)  # training did not lower E: keep the old network, stop
+            break
+        U_neu = U_new
+        model = TrainedModel(clf, encoder, delta, tuple(label_names), params)
+        yield Snapshot(it, "train", e_train, _frozen(faces), _frozen(faces), time.perf_counter() - t, model)
+
+        # (3c) fix the network, graph cuts with its log-probabilities
+        t = time.perf_counter()
+        y_new = [alpha_expansion(Us + Un, s.patch_pairs, w, init=yi) for Us, Un, s, w, yi in zip(U_scr, U_neu, shapes, W, y)]
+        unchanged = all(np.array_equal(a, b) for a, b in zip(y, y_new))
+        y = y_new
+        energy = _total(y, U_scr, U_neu, shapes, W)
+        faces = [yi[s.patch] for yi, s in zip(y, shapes)]
+        yield Snapshot(it, "graphcut", energy, _frozen(faces), _frozen(faces), time.perf_counter() - t, model)
+        # Converged when the labels are a fixed point (further training only refits the
+        # same labels) or the energy stops decreasing.
+        stalled = np.isfinite(best) and energy.total > best * (1 - params.tolerance)
+        best = min(best, energy.total)
+        if unchanged or stalled:
+            break
+
+    patch_faces = faces
+    if params.refine and model is not None:
+        t = time.perf_counter()
+        logp = [clf.log_proba(s.X) for s in shapes]
+        faces = [
+            refine_labels(s.graph, lp, pf, s.scribbled_labels, s.scribble, params.refinement)
+            for s, lp, pf in zip(shapes, logp, patch_faces)
+        ]
+        yield Snapshot(it, "refine", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
+    yield Snapshot(it, "done", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t0, model)
+
+
+def _geodesic_unary(shape: ShapeData, k: int, weights: np.ndarray) -> np.ndarray:
+    """(p, k): area fraction of each patch whose nearest scribble is not label l, times
+    half the patch's weighted degree in the feature term (so the cue and the pairwise
+    term are on one scale: a patch leaves its nearest scribble's label only where that
+    removes at least half its boundary cost)."""
+    near = nearest_scribble_labels(shape.graph, shape.scribble)
+    reached = near >= 0
+    A = np.zeros((len(near), k))
+    A[np.flatnonzero(reached), near[reached]] = shape.area[reached]
+    per_patch = shape.patch_matrix() @ A
+    total = per_patch.sum(axis=1, keepdims=True)
+    agree = np.divide(per_patch, total, out=np.ones_like(per_patch), where=total > 0)
+    degree = np.bincount(shape.patch_pairs.ravel(), np.repeat(weights, 2), minlength=shape.num_patches)
+    return (1.0 - agree) * (0.5 * degree + 1e-3)[:, None]
+
+
+def _total(y, U_scr, U_neu, shapes, W) -> EnergyTerms:
+    total = EnergyTerms(0.0, 0.0 if U_neu is not None else float("nan"), 0.0)
+    for i, s in enumerate(shapes):
+        total = total + energy_terms(y[i], U_scr[i], None if U_neu is None else U_neu[i], s.patch_pairs, W[i])
+    return total
+
+
+def _state(clf: FaceClassifier):
+    import copy
+
+    return copy.deepcopy(clf.net.state_dict()), clf.mean.copy(), clf.std.copy()
+
+
+def _restore(clf: FaceClassifier, state) -> None:
+    clf.net.load_state_dict(state[0])
+    clf.mean, clf.std = state[1], state[2]
+
+
+def predict_shape(model: TrainedModel, shape: ShapeData, *, refine: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Segment an unseen shape with a trained model (no scribbles needed).
+
+    Patch-level graph cut on the network's log-probabilities and the feature term, then
+    (optionally) the face-level refinement. Scribbles on the shape, if any, are honoured.
+
+    Returns
+    -------
+    labels : (m,) int64 ndarray
+        Refined face labels (equal to `patch_labels` without refinement).
+    patch_labels : (m,) int64 ndarray
+        The patch-level result on faces.
+    """
+    k = len(model.label_names)
+    refine = model.params.refine if refine is None else refine
+    allowed = np.arange(k)
+    logp = model.classifier.log_proba(shape.X)
+    D = model.encoder.encode(shape.X, shape.area, shape.patch)
+    w = feature_weights(D, shape.patch_pairs, model.delta, model.params.lam)
+    U = network_unary(shape.patch_matrix(), logp)
+    U = U + scribble_unary(shape.patch, shape.scribble, allowed, k)
+    y = alpha_expansion(U, shape.patch_pairs, w)
+    patch_faces = y[shape.patch]
+    if not refine:
+        return patch_faces, patch_faces
+    labels = refine_labels(shape.graph, logp, patch_faces, allowed, shape.scribble, model.params.refinement)
+    return labels, patch_faces

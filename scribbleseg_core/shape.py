@@ -1,0 +1,102 @@
+"""Per-shape data the engine works on: features, dual graph, patches, scribbles."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from scribbleseg_core.cache import ArrayCache, cached_face_features
+from scribbleseg_core.dual_graph import DualGraph, dual_graph
+from scribbleseg_core.features import FeatureParams
+from scribbleseg_core.geometry import face_areas
+from scribbleseg_core.mesh_io import Mesh
+from scribbleseg_core.patches import over_segment, patch_adjacency
+
+
+@dataclass(frozen=True, eq=False)
+class ShapeData:
+    """One shape, ready for the optimization. Face arrays index the repaired faces.
+
+    Attributes
+    ----------
+    mesh : Mesh
+    X : (m, 22) float64 ndarray
+        Face features.
+    area : (m,) float64 ndarray
+        Face areas of the unit-area mesh.
+    graph : DualGraph
+    patch : (m,) int64 ndarray
+        Patch id per face.
+    patch_pairs : (r, 2) int64 ndarray
+        Adjacent patches.
+    scribble : (m,) int64 ndarray
+        Scribble label per face (collection label ids), -1 where unscribbled.
+    """
+
+    mesh: Mesh
+    X: np.ndarray
+    area: np.ndarray
+    graph: DualGraph
+    patch: np.ndarray
+    patch_pairs: np.ndarray
+    scribble: np.ndarray
+
+    @property
+    def name(self) -> str:
+        return self.mesh.name
+
+    @property
+    def num_patches(self) -> int:
+        return int(self.patch.max()) + 1
+
+    @property
+    def is_scribbled(self) -> bool:
+        return bool((self.scribble >= 0).any())
+
+    @property
+    def scribbled_labels(self) -> np.ndarray:
+        """Sorted label ids scribbled on this shape."""
+        return np.unique(self.scribble[self.scribble >= 0])
+
+    def patch_matrix(self) -> sp.csr_matrix:
+        """Indicator (p, m): row i sums face values over patch i."""
+        m = len(self.patch)
+        return sp.csr_matrix((np.ones(m), (self.patch, np.arange(m))), shape=(self.num_patches, m))
+
+
+def prepare_shape(
+    mesh: Mesh,
+    file_scribble: np.ndarray | None = None,
+    *,
+    num_patches: int = 50,
+    feature_params: FeatureParams = FeatureParams(),
+    cache: ArrayCache | None = None,
+    X: np.ndarray | None = None,
+) -> ShapeData:
+    """Features (cached), dual graph and patches of one shape.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    file_scribble : (m0,) int ndarray, optional
+        Scribble label per *file* face (-1 unscribbled), as from ``Scribbles.face_labels``.
+    num_patches : int
+    feature_params : FeatureParams
+    cache : ArrayCache, optional
+    X : (m, 22) ndarray, optional
+        Precomputed face features (skips the cache).
+    """
+    V = mesh.normalized()
+    F = mesh.F
+    if X is None:
+        X = cached_face_features(mesh.V, F, feature_params, cache=cache)
+    scribble = np.full(len(F), -1, np.int64)
+    if file_scribble is not None:
+        # a repaired face is scribbled if its own file face was
+        scribble = np.asarray(file_scribble, dtype=np.int64)[mesh.proc_to_file]
+    graph = dual_graph(V, F)
+    patch = over_segment(graph, num_patches, scribble_labels=scribble if (scribble >= 0).any() else None)
+    pairs, _ = patch_adjacency(graph, patch)
+    return ShapeData(mesh, X, face_areas(V, F), graph, patch, pairs, scribble)

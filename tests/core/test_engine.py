@@ -1,0 +1,132 @@
+"""The engine on a planted collection: accuracy, hard scribbles, monotone energy, early stop, models."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scribbleseg_core.cache import ArrayCache
+from scribbleseg_core.energy import scribble_unary
+from scribbleseg_core.errors import ModelFileError
+from scribbleseg_core.graphcut import INF
+from scribbleseg_core.model_io import load_model, save_model
+from scribbleseg_core.network import NetworkParams
+from scribbleseg_core.optimize import SegmentParams, predict_shape, segment_collection
+from scribbleseg_core.shape import prepare_shape
+from tests.core.planted import LABELS, creature, stroke_faces
+
+PARAMS = SegmentParams(network=NetworkParams(epochs=30, warm_epochs=10, max_faces_per_shape=3000))
+
+
+@pytest.fixture(scope="module")
+def collection(tmp_path_factory):
+    cache = ArrayCache(tmp_path_factory.mktemp("cache"))
+    shapes, gts = [], []
+    for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1), (1.4, 0.8)]):
+        mesh, gt = creature(limb, head, seed=i)
+        scribble = None
+        if i < 3:  # three scribbled, one held out
+            scribble = np.full(len(gt), -1)
+            for lab in range(len(LABELS)):
+                scribble[stroke_faces(mesh, gt, lab)] = lab
+        shapes.append(prepare_shape(mesh, scribble, cache=cache))
+        gts.append(gt)
+    snaps = list(segment_collection(shapes, LABELS, PARAMS))
+    return shapes, gts, snaps
+
+
+def test_planted_parts_come_back(collection):
+    shapes, gts, snaps = collection
+    final = snaps[-1]
+    assert final.done and final.model is not None
+    for s, gt, labels, patch_labels in zip(shapes[:3], gts, final.labels, final.patch_labels):
+        assert (labels == gt).mean() >= 0.95
+        assert (patch_labels == gt).mean() >= 0.90
+
+
+def test_scribbled_faces_keep_their_label(collection):
+    shapes, _, snaps = collection
+    for snap in snaps:
+        for s, labels, patch_labels in zip(shapes, snap.labels, snap.patch_labels):
+            sel = s.scribble >= 0
+            np.testing.assert_array_equal(labels[sel], s.scribble[sel])
+            np.testing.assert_array_equal(patch_labels[sel], s.scribble[sel])
+
+
+def test_energy_never_increases(collection):
+    _, _, snaps = collection
+    totals = [s.energy.total for s in snaps if s.iteration >= 1 and s.phase in ("train", "graphcut")]
+    assert len(totals) >= 2
+    assert all(b <= a * (1 + 1e-9) for a, b in zip(totals, totals[1:]))
+    assert snaps[0].phase == "graphcut" and np.isnan(snaps[0].energy.network)
+
+
+def test_stopping_early_leaves_valid_labels(collection):
+    shapes, _, _ = collection
+    gen = segment_collection(shapes, LABELS, PARAMS)
+    first = next(gen)
+    gen.close()
+    for s, labels in zip([s for s in shapes if s.is_scribbled], first.labels):
+        assert labels.shape == (len(s.mesh.F),) and labels.min() >= 0
+        assert set(np.unique(labels)) <= set(s.scribbled_labels)
+        assert not labels.flags.writeable  # frozen snapshot
+
+
+def test_unseen_shape_is_predicted(collection):
+    shapes, gts, snaps = collection
+    labels, patch_labels = predict_shape(snaps[-1].model, shapes[3])
+    assert (labels == gts[3]).mean() >= 0.90
+
+
+def test_model_round_trip_and_refusals(tmp_path, collection):
+    shapes, _, snaps = collection
+    model = snaps[-1].model
+    save_model(tmp_path / "m", model)
+    back = load_model(tmp_path / "m", expected_labels=LABELS)
+    np.testing.assert_array_equal(predict_shape(back, shapes[3])[0], predict_shape(model, shapes[3])[0])
+    with pytest.raises(ModelFileError, match="trained on labels"):
+        load_model(tmp_path / "m", expected_labels=("a", "b"))
+    import json
+
+    import torch
+
+    meta = json.loads((tmp_path / "m" / "model.json").read_text())
+    (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "version": 99}))
+    with pytest.raises(ModelFileError, match="version 99"):
+        load_model(tmp_path / "m")
+    (tmp_path / "m" / "model.json").write_text(json.dumps(meta))
+    # a pickle with code in place of the weights is refused, not executed
+    torch.save({"weights": object()}, tmp_path / "m" / "weights.pt")
+    with pytest.raises(ModelFileError, match="corrupt or foreign"):
+        load_model(tmp_path / "m")
+    (tmp_path / "m" / "weights.pt").write_bytes(b"garbage")
+    with pytest.raises(ModelFileError):
+        load_model(tmp_path / "m")
+    with pytest.raises(ModelFileError, match="no model.json"):
+        load_model(tmp_path)
+
+
+def test_scribble_unary_follows_eq1():
+    patch = np.array([0, 0, 1, 1, 2])
+    scribble = np.array([-1, 2, -1, -1, -1])
+    U = scribble_unary(patch, scribble, np.array([0, 2]), 3)
+    np.testing.assert_array_equal(U[0], [INF, INF, 0.0])
+    np.testing.assert_allclose(U[1], [np.log(2), INF, np.log(2)])
+    with pytest.raises(ValueError, match="two labels"):
+        scribble_unary(np.array([0, 0]), np.array([0, 1]), np.array([0, 1]), 2)
+
+
+def test_patches_never_mix_scribble_labels_and_are_connected(collection):
+    from scipy.sparse.csgraph import connected_components
+
+    shapes, _, _ = collection
+    for s in shapes:
+        assert 40 <= s.num_patches <= 70
+        sel = s.scribble >= 0
+        pairs = np.unique(np.stack([s.patch[sel], s.scribble[sel]], 1), axis=0)
+        assert len(np.unique(pairs[:, 0])) == len(pairs)
+        inside = s.patch[s.graph.pairs[:, 0]] == s.patch[s.graph.pairs[:, 1]]
+        G = s.graph.matrix(inside.astype(float))
+        G.eliminate_zeros()
+        n, _ = connected_components(G, directed=False)
+        assert n == s.num_patches
