@@ -9,7 +9,7 @@ TORCH  := torch==2.13.0
 DEB_PKGS := libgl1-mesa-dri libglx-mesa0 libegl-mesa0 libegl1 libgbm1 libxkbcommon0 \
             libxcb-icccm4 libxcb-keysyms1 libxcb-xinerama0 libxcb-cursor0 libfontconfig1 libdbus-1-3 xvfb
 
-.PHONY: run test bench bench-load lint clean
+.PHONY: run test bench bench-load bench-engine clean
 
 $(VENV)/.base: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV) || python3 -m venv $(VENV)
@@ -43,6 +43,9 @@ bench-load: $(VENV)/.base
 
 bench: $(VENV)/.base
 	$(PY) -m scribbleseg_core.bench.features
+
+bench-engine: $(VENV)/.base
+	OPENBLAS_NUM_THREADS=1 $(PY) -m scribbleseg_core.bench.psb_engine
 
 clean:
 	rm -rf $(VENV) .deb-stamp .pytest_cache

@@ -43,7 +43,7 @@ def _progress(items, quiet: bool, desc: str):
     return tqdm(items, desc=desc, unit="shape", file=sys.stderr, leave=False)
 
 
-def _write_outputs(out: Path, mesh, labels, label_names, quiet: bool) -> None:
+def _write_outputs(out: Path, mesh, labels, label_names) -> None:
     from scribbleseg_core.export import export_labeled_mesh
     from scribbleseg_core.labels import LabelSet
 
@@ -85,10 +85,10 @@ def _cmd_segment(args) -> int:
                   f"{snap.seconds:.1f} s", file=sys.stderr)
     trained = [s for s in shapes if s.is_scribbled]
     for s, labels in zip(trained, last.labels):
-        _write_outputs(out, s.mesh, labels, coll.label_names, args.quiet)
+        _write_outputs(out, s.mesh, labels, coll.label_names)
     for s in _progress([s for s in shapes if not s.is_scribbled], args.quiet, "predict"):
         labels, _ = predict_shape(last.model, s)
-        _write_outputs(out, s.mesh, labels, coll.label_names, args.quiet)
+        _write_outputs(out, s.mesh, labels, coll.label_names)
     save_model(out / "model", last.model)
     if not args.quiet:
         print(f"segmented {len(trained)} scribbled and predicted {len(shapes) - len(trained)} shapes "
@@ -108,7 +108,7 @@ def _cmd_predict(args) -> int:
         mesh = load_mesh(path)
         labels, _ = predict_shape(model, prepare_shape(mesh, num_patches=args.patches),
                                   refine=False if args.no_refine else None)
-        _write_outputs(out, mesh, labels, model.label_names, args.quiet)
+        _write_outputs(out, mesh, labels, model.label_names)
     return 0
 
 

@@ -25,3 +25,48 @@ def test_info_on_a_good_mesh(tmp_path):
     (tmp_path / "t.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     r = _run("info", str(tmp_path / "t.obj"))
     assert r.returncode == 0 and "1 boundary loops" in r.stdout
+
+
+def test_segment_then_predict_a_planted_folder(tmp_path):
+    """`segment DIR --out OUT` on meshes + scribbles/ (the PSB layout), then `predict`."""
+    import numpy as np
+
+    from scribbleseg_core.export import read_ply_labels, read_seg
+    from scribbleseg_core.scribbles import Scribbles, Stroke, write_scribbles
+    from tests.core.planted import LABELS, creature, stroke_faces
+
+    data = tmp_path / "data"
+    (data / "scribbles").mkdir(parents=True)
+    gts = {}
+    for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1)]):
+        mesh, gt = creature(limb, head, seed=i)
+        name = f"{i + 1}.off"
+        lines = ["OFF", f"{len(mesh.V)} {len(mesh.F)} 0"] + [f"{x:.17g} {y:.17g} {z:.17g}" for x, y, z in mesh.V]
+        lines += [f"3 {a} {b} {c}" for a, b, c in mesh.F]
+        (data / name).write_text("\n".join(lines) + "\n")
+        gts[i + 1] = gt
+        if i < 2:
+            strokes = tuple(Stroke(lab, stroke_faces(mesh, gt, lab)) for lab in range(len(LABELS)))
+            write_scribbles(data / "scribbles" / f"{i + 1}.json", Scribbles(name, len(mesh.F), LABELS, strokes))
+    out = tmp_path / "out"
+    env = {"SCRIBBLESEG_CACHE_DIR": str(tmp_path / "cache")}
+    r = _run_env(env, "segment", str(data), "--out", str(out), "--quiet")
+    assert r.returncode == 0, r.stderr
+    for k in (1, 2, 3):  # 1, 2 scribbled; 3 predicted
+        labels = read_seg(out / f"{k}.seg", len(gts[k]))
+        assert (labels == gts[k]).mean() > 0.9
+        np.testing.assert_array_equal(read_ply_labels(out / f"{k}.ply"), labels)
+    assert (out / "model" / "model.json").is_file()
+    r = _run_env(env, "predict", str(out / "model"), str(data / "3.off"), "--out", str(tmp_path / "pred"), "--quiet")
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_array_equal(read_seg(tmp_path / "pred" / "3.seg"), read_seg(out / "3.seg"))
+    # a model folder that is not one is one clear line
+    r = _run_env(env, "predict", str(data), str(data / "3.off"), "--out", str(tmp_path / "x"))
+    assert r.returncode == 2 and "no model.json" in r.stderr and "Traceback" not in r.stderr
+
+
+def _run_env(env, *args):
+    import os
+
+    return subprocess.run([sys.executable, "-m", "scribbleseg_core.cli", *args], capture_output=True, text=True,
+                          env={**os.environ, **env})
