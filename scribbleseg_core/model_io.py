@@ -100,7 +100,8 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     try:
         p = meta["params"]
         net = NetworkParams(**{**p["network"], "hidden": tuple(p["network"]["hidden"])})
-        params = SegmentParams(**{**p, "network": net, "refinement": RefineParams(**p["refinement"])})
+        params = SegmentParams(**{**p, "network": net, "refinement": RefineParams(**p["refinement"]),
+                                  "context_scales": tuple(p["context_scales"])})
         with np.load(folder / "arrays.npz", allow_pickle=False) as z:
             arr = {key: z[key] for key in z.files}
         state = torch.load(folder / "weights.pt", map_location="cpu", weights_only=True)
@@ -113,6 +114,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         raise ModelFileError(f"incomplete model: {Path(e.filename).name} is missing", folder) from None
     except Exception as e:  # wrong shapes, a pickle, truncated files: all "not a model of ours"
         raise ModelFileError(f"corrupt or foreign model files ({type(e).__name__}: {e})"[:300], folder) from None
-    if clf.num_inputs != NUM_FEATURES or clf.mean.shape != (NUM_FEATURES,):
-        raise ModelFileError(f"expects {clf.num_inputs} face features, scribbleseg computes {NUM_FEATURES}", folder)
+    expected = NUM_FEATURES * (1 + len(params.context_scales))
+    if clf.num_inputs != expected or clf.mean.shape != (expected,):
+        raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
     return TrainedModel(clf, encoder, float(meta["delta"]), names, params)

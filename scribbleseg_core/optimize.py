@@ -14,6 +14,7 @@ from typing import Literal
 
 import numpy as np
 
+from scribbleseg_core.context import DEFAULT_SCALES
 from scribbleseg_core.energy import (
     EnergyTerms,
     energy_terms,
@@ -43,6 +44,9 @@ class SegmentParams:
         Network/graph-cut rounds at most (the paper converges in about 4).
     tolerance : float
         Stop when the total energy falls by less than this fraction.
+    context_scales : tuple of float
+        Beyond the paper: diffusion times of the context added to the network's input
+        (the 22 signatures diffused over the surface); ``()`` gives the paper's 22 inputs.
     refine : bool
         Run the face-level refinement after convergence.
     init : {"geodesic", "paper"}
@@ -54,6 +58,7 @@ class SegmentParams:
     """
 
     lam: float = 1.0
+    context_scales: tuple[float, ...] = DEFAULT_SCALES
     max_iterations: int = 6
     tolerance: float = 1e-3
     refine: bool = True
@@ -161,7 +166,8 @@ def segment_collection(
     faces = [yi[s.patch] for yi, s in zip(y, shapes)]
     yield Snapshot(0, "graphcut", energy, _frozen(faces), _frozen(faces), time.perf_counter() - t0)
 
-    clf = FaceClassifier(shapes[0].X.shape[1], k, params.network)
+    inputs = [s.network_input(params.context_scales) for s in shapes]
+    clf = FaceClassifier(inputs[0].shape[1], k, params.network)
     model = None
     U_neu = None
     best = np.inf
@@ -169,8 +175,8 @@ def segment_collection(
         # (3b) fix Y, train the network on every face with its current label
         t = time.perf_counter()
         previous = None if not clf.trained else _state(clf)
-        clf.fit([s.X for s in shapes], faces, warm=clf.trained)
-        logp = [clf.log_proba(s.X) for s in shapes]
+        clf.fit(inputs, faces, warm=clf.trained)
+        logp = [clf.log_proba(x) for x in inputs]
         U_new = [network_unary(Pi, lp) for Pi, lp in zip(P, logp)]
         e_train = _total(y, U_scr, U_new, shapes, W)
         if previous is not None and e_train.total > best:
@@ -198,7 +204,7 @@ def segment_collection(
     patch_faces = faces
     if params.refine and model is not None:
         t = time.perf_counter()
-        logp = [clf.log_proba(s.X) for s in shapes]
+        logp = [clf.log_proba(x) for x in inputs]
         faces = [
             refine_labels(s.graph, lp, pf, s.scribbled_labels, s.scribble, params.refinement)
             for s, lp, pf in zip(shapes, logp, patch_faces)
@@ -257,7 +263,7 @@ def predict_shape(model: TrainedModel, shape: ShapeData, *, refine: bool | None 
     k = len(model.label_names)
     refine = model.params.refine if refine is None else refine
     allowed = np.arange(k)
-    logp = model.classifier.log_proba(shape.X)
+    logp = model.classifier.log_proba(shape.network_input(model.params.context_scales))
     D = model.encoder.encode(shape.X, shape.area, shape.patch)
     w = feature_weights(D, shape.patch_pairs, model.delta, model.params.lam)
     U = network_unary(shape.patch_matrix(), logp)

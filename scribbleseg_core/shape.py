@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -42,6 +42,19 @@ class ShapeData:
     patch: np.ndarray
     patch_pairs: np.ndarray
     scribble: np.ndarray
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def network_input(self, context_scales: tuple[float, ...] = ()) -> np.ndarray:
+        """The classifier's input per face: the 22 signatures, then the same diffused at
+        each of `context_scales` (see :mod:`scribbleseg_core.context`); (m, 22 · (1 + s)).
+        Cached per scales."""
+        key = ("input", tuple(context_scales))
+        if key not in self._cache:
+            from scribbleseg_core.context import diffuse_face_values
+
+            ctx = diffuse_face_values(self.graph, self.area, self.X, context_scales)
+            self._cache[key] = np.hstack([self.X, ctx])
+        return self._cache[key]
 
     @property
     def name(self) -> str:
