@@ -112,6 +112,21 @@ def _cmd_predict(args) -> int:
     return 0
 
 
+def _cmd_bench(args) -> int:
+    from scribbleseg_core.bench.report import bench
+
+    root = Path(args.data)
+    if not (root.is_dir() and any(p.is_dir() and (p / "labels").is_dir() for p in root.iterdir())):
+        raise ScribblesegError(f"{root}: not a benchmark folder (expected <Category>/labels, scribbles/ and meshes)")
+    modes = {"train": ["train"], "test": ["test"], "both": ["train", "test"], "scribbled": ["scribbled"], "given": ["given"],
+             "all": ["train", "test", "scribbled"]}[args.mode]
+    progress = None if args.quiet else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
+    report = bench(root, Path(args.out), modes=modes, cats=args.categories, folds=args.folds,
+                   scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed, progress=progress)
+    print((Path(args.out) / "report.md").read_text())
+    return 0 if report["verified"] else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="scribbleseg", description="Scribble-based segmentation of 3D shape collections."
@@ -138,6 +153,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-refine", action="store_true")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_predict)
+
+    p = sub.add_parser("bench", help="evaluate on PSB-style data (../shared/psb) and write a report")
+    p.add_argument("data", help="folder of <Category>/ folders with meshes, labels/, scribbles/")
+    p.add_argument("--mode", choices=["train", "test", "both", "scribbled", "given", "all"], default="both",
+                   help="both = train and test; given = train on the shapes that have scribble files, predict the rest")
+    p.add_argument("--folds", type=int, default=5, help="test mode: folds by sorted id (20 = leave-one-out)")
+    p.add_argument("--scribbled", type=int, nargs="+", default=[1, 3, 5, 10],
+                   help="scribbled mode: shapes per category that keep their scribbles")
+    p.add_argument("--coverage", type=float, default=1.0, help="keep this central fraction of every stroke")
+    p.add_argument("--categories", nargs="+")
+    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
+                   help="face-level refinement (--no-refine: the paper's patch-level result)")
+    p.add_argument("--seed", type=int, default=0, help="scribbled mode: which shapes keep scribbles")
+    p.add_argument("--out", required=True)
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(func=_cmd_bench)
     return parser
 
 

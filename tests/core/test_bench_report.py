@@ -1,0 +1,78 @@
+"""The benchmark report on a small planted PSB-style folder: modes, files, self-verification."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from scribbleseg_core.bench.report import bench, keep_coverage, verify
+from scribbleseg_core.export import write_seg
+from scribbleseg_core.network import NetworkParams
+from scribbleseg_core.optimize import SegmentParams
+from scribbleseg_core.scribbles import Scribbles, Stroke, write_scribbles
+from tests.core.planted import LABELS, creature, stroke_faces
+
+FAST = SegmentParams(network=NetworkParams(epochs=20, warm_epochs=8, max_faces_per_shape=2000))
+
+
+@pytest.fixture(scope="module")
+def planted_root(tmp_path_factory):
+    root = tmp_path_factory.mktemp("psb")
+    cat = root / "Planted"
+    (cat / "labels").mkdir(parents=True)
+    (cat / "scribbles").mkdir()
+    human = {}
+    for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1), (1.4, 0.8)]):
+        mesh, gt = creature(limb, head, seed=i)
+        name = str(i + 1)
+        lines = ["OFF", f"{len(mesh.V)} {len(mesh.F)} 0"] + [f"{x:.17g} {y:.17g} {z:.17g}" for x, y, z in mesh.V]
+        (cat / f"{name}.off").write_text("\n".join(lines + [f"3 {a} {b} {c}" for a, b, c in mesh.F]) + "\n")
+        write_seg(cat / "labels" / f"{name}.seg", gt)
+        strokes = tuple(Stroke(lab, stroke_faces(mesh, gt, lab)) for lab in range(len(LABELS)))
+        write_scribbles(cat / "scribbles" / f"{name}.json", Scribbles(f"{name}.off", len(gt), LABELS, strokes))
+        human[f"{name}_0"] = gt.astype(np.int16)
+    np.savez(cat / "benchmark_seg.npz", **human)
+    (cat / "labels" / "label_names.txt").write_text("".join(f"{i} {n}\n" for i, n in enumerate(LABELS)))
+    return root
+
+
+def test_train_test_scribbled_report(tmp_path, planted_root):
+    out = tmp_path / "out"
+    report = bench(planted_root, out, modes=("train", "test", "scribbled"), folds=2, scribbled=(2,), params=FAST)
+    entry = report["categories"]["Planted"]
+    assert report["verified"] is True
+    assert entry["train"]["summary"]["ri_error"] < 0.08
+    assert entry["train"]["summary"]["scored_shapes"] == 4
+    assert entry["test"]["summary"]["scored_shapes"] == 4  # every shape predicted once
+    assert entry["scribbled_2"]["summary"]["scored_shapes"] == 2
+    # a human segmentation equal to the truth, split into components, scores like the label map
+    assert entry["train"]["summary"]["ri_error_human"] >= entry["train"]["summary"]["ri_error"] - 1e-9
+    for key in ("gce", "lce", "hamming", "cut_discrepancy", "accuracy_area", "ri_error_area"):
+        assert np.isfinite(entry["train"]["summary"][key])
+    assert (out / "report.md").read_text().count("| Planted |") == 4  # three modes and the cost table
+    assert json.loads((out / "report.json").read_text())["verified"] is True
+    assert (out / "Planted" / "test" / "3.seg").is_file()
+    pytest.importorskip("matplotlib")
+    assert (out / "chart.png").stat().st_size > 1000
+
+
+def test_verification_catches_a_tampered_seg(tmp_path, planted_root):
+    out = tmp_path / "out"
+    report = bench(planted_root, out, modes=("train",), params=FAST)
+    seg = out / "Planted" / "train" / "1.seg"
+    labels = np.loadtxt(seg, dtype=int)
+    half = len(labels) // 2  # (renaming all labels would not change the Rand Index)
+    labels[:half] = (labels[:half] + 1) % 3
+    write_seg(seg, labels)
+    with pytest.raises(AssertionError, match="Planted/train/1"):
+        verify(planted_root, out, report)
+
+
+def test_keep_coverage_keeps_the_middle_of_every_stroke():
+    scr = Scribbles("m.off", 100, ("a",), (Stroke(0, np.arange(10)), Stroke(0, np.arange(50, 53))))
+    cut = keep_coverage(scr, 0.4)
+    np.testing.assert_array_equal(cut.strokes[0].faces, [3, 4, 5, 6])
+    assert len(cut.strokes[1].faces) == 1
+    assert keep_coverage(scr, 1.0) is scr
