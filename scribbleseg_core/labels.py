@@ -51,7 +51,7 @@ class LabelSet:
         colors = np.asarray(colors, dtype=np.float64).reshape(-1, 3)
         if colors.shape[0] != len(names):
             raise ValueError(f"{len(names)} label names but {colors.shape[0]} colors")
-        if not np.isfinite(colors).all() or colors.min() < 0 or colors.max() > 1:
+        if colors.size and (not np.isfinite(colors).all() or colors.min() < 0 or colors.max() > 1):
             raise ValueError("label colors must be RGB values in [0, 1]")
         return cls(names, colors)
 
