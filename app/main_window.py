@@ -33,7 +33,7 @@ class MainWindow(QMainWindow):
     def __init__(self, path: str | None = None, viewport=None):
         super().__init__()
         self.setWindowTitle(f"scribbleseg {__version__}")
-        self.resize(360, 560)
+        self.resize(460, 560)
         self.model = CollectionModel()
         self._viewport = viewport
         self.shape_list = QListWidget()

@@ -35,7 +35,10 @@ class PolyscopeViewport:
         ps.remove_all_structures()
         mesh = ps.register_surface_mesh(STRUCTURE, V, F, smooth_shade=False, edge_width=0.0)
         mesh.add_color_quantity(COLORS, colors, defined_on="faces", enabled=True)
-        ps.reset_camera_to_home_view()
+        # a three-quarter view from above, framing the bounding box
+        lo, hi = V.min(axis=0), V.max(axis=0)
+        center, size = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
+        ps.look_at(center + size * np.array([0.7, 1.0, 0.55]), center)
 
     def set_colors(self, colors: np.ndarray) -> None:
         """Update the face colors of the shown mesh in place, (m, 3)."""

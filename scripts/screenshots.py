@@ -1,0 +1,37 @@
+"""Screenshots of the app for the README: ``python scripts/screenshots.py`` (headless).
+
+Writes docs/app_window.png (the Qt window, offscreen) and docs/app_viewport.png (polyscope, EGL).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main(out: Path = ROOT / "docs") -> None:
+    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+    from PySide6.QtWidgets import QApplication
+
+    from app.main_window import MainWindow
+    from app.viewport import PolyscopeViewport
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    viewport = PolyscopeViewport()
+    w = MainWindow(viewport=viewport)
+    w.show()
+    w.shape_list.setCurrentRow(0)
+    for _ in range(5):
+        app.processEvents()
+        viewport.tick()
+    out.mkdir(parents=True, exist_ok=True)
+    w.grab().save(str(out / "app_window.png"))
+    viewport.screenshot(str(out / "app_viewport.png"))
+    print(f"wrote {out / 'app_window.png'} and {out / 'app_viewport.png'}")
+
+
+if __name__ == "__main__":
+    main()
