@@ -45,7 +45,7 @@ bench: $(VENV)/.base
 	$(PY) -m scribbleseg_core.bench.features
 
 bench-engine: $(VENV)/.base
-	OPENBLAS_NUM_THREADS=1 $(PY) -m scribbleseg_core.bench.psb_engine
+	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/scribbleseg bench ../shared/psb --mode both --out out/bench
 
 clean:
 	rm -rf $(VENV) .deb-stamp .pytest_cache

@@ -1,15 +1,27 @@
-"""The main window: the collection's shapes beside a polyscope viewport.
-
-This first slice browses a collection: pick a shape, see it with its scribbles and labels.
-Painting, the optimization worker and exports are not built yet.
-"""
+"""The main window: the collection's shapes and labels beside a polyscope viewport."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from PySide6.QtCore import QTimer
-from PySide6.QtWidgets import QLabel, QListWidget, QListWidgetItem, QMainWindow, QMessageBox, QVBoxLayout, QWidget
+import numpy as np
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtGui import QAction, QColor, QIcon, QKeySequence, QPixmap, QShortcut
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QColorDialog,
+    QHBoxLayout,
+    QInputDialog,
+    QLabel,
+    QListWidget,
+    QListWidgetItem,
+    QMainWindow,
+    QMessageBox,
+    QPushButton,
+    QSlider,
+    QVBoxLayout,
+    QWidget,
+)
 
 from app.model import CollectionModel
 from scribbleseg_core import __version__
@@ -17,6 +29,12 @@ from scribbleseg_core import __version__
 #: Default collection when none is given: the bundled demo creatures.
 DEFAULT_COLLECTION = Path(__file__).resolve().parents[1] / "assets" / "Quadruped"
 FRAME_MS = 16
+
+
+def _swatch(rgb) -> QIcon:
+    pm = QPixmap(14, 14)
+    pm.fill(QColor.fromRgbF(*[float(c) for c in rgb]))
+    return QIcon(pm)
 
 
 class MainWindow(QMainWindow):
@@ -28,65 +46,188 @@ class MainWindow(QMainWindow):
         A collection folder or one mesh; default :data:`DEFAULT_COLLECTION`.
     viewport : PolyscopeViewport, optional
         Made on first use when not given (tests pass their own).
+    autosave_dir : str, optional
+        Where scribbles are saved after every stroke; default the user state folder.
     """
 
-    def __init__(self, path: str | None = None, viewport=None):
+    def __init__(self, path: str | None = None, viewport=None, autosave_dir=None):
         super().__init__()
         self.setWindowTitle(f"scribbleseg {__version__}")
-        self.resize(460, 560)
-        self.model = CollectionModel()
-        self._viewport = viewport
-        self.shape_list = QListWidget()
-        self.labels_info = QLabel()
-        self.labels_info.setWordWrap(True)
-        panel = QWidget()
-        layout = QVBoxLayout(panel)
-        layout.addWidget(QLabel("Shapes"))
-        layout.addWidget(self.shape_list)
-        layout.addWidget(self.labels_info)
-        note = QLabel("Browsing only: painting and segmentation in the app are not built yet; "
-                      "use `scribbleseg segment` meanwhile.")
-        note.setWordWrap(True)
-        layout.addWidget(note)
-        self.setCentralWidget(panel)
-        self.shape_list.currentRowChanged.connect(self._on_row_changed)
-        self.model.collection_changed.connect(self._on_collection_changed)
-        self.model.current_changed.connect(self._on_current_changed)
-        self.model.error.connect(self._on_error)
+        self.resize(460, 720)
+        if autosave_dir is None:
+            import platformdirs
+
+            autosave_dir = Path(platformdirs.user_state_dir("scribbleseg")) / "autosave"
+        self.model = CollectionModel(autosave_dir)
+        self._viewport = None
+        if viewport is not None:
+            self._attach(viewport)
+        self._build_widgets()
+        self._connect()
         self.timer = QTimer(self)
         self.timer.timeout.connect(self._on_frame)
         self.timer.start(FRAME_MS)
         self.model.open(path or DEFAULT_COLLECTION)
+
+    # ---------------------------------------------------------------- layout
+
+    def _build_widgets(self) -> None:
+        self.shape_list = QListWidget()
+        self.label_list = QListWidget()
+        self.add_label_button = QPushButton("Add label")
+        self.color_button = QPushButton("Color…")
+        self.paint_box = QCheckBox("Paint: left-drag on the shape (drag elsewhere or Shift+drag to orbit)")
+        self.eraser_box = QCheckBox("Eraser")
+        self.brush_slider = QSlider(Qt.Orientation.Horizontal)
+        self.brush_slider.setRange(1, 100)
+        self.brush_slider.setValue(20)
+        panel = QWidget()
+        layout = QVBoxLayout(panel)
+        layout.addWidget(QLabel("Shapes"))
+        layout.addWidget(self.shape_list, 3)
+        layout.addWidget(QLabel("Labels (keys 1–9; double-click to rename)"))
+        layout.addWidget(self.label_list, 2)
+        row = QHBoxLayout()
+        row.addWidget(self.add_label_button)
+        row.addWidget(self.color_button)
+        layout.addLayout(row)
+        layout.addWidget(self.paint_box)
+        row = QHBoxLayout()
+        row.addWidget(self.eraser_box)
+        row.addWidget(QLabel("Brush ([ ])"))
+        row.addWidget(self.brush_slider)
+        layout.addLayout(row)
+        note = QLabel("Segmenting from the app is not built yet: use `scribbleseg segment` on the folder.")
+        note.setWordWrap(True)
+        layout.addWidget(note)
+        self.setCentralWidget(panel)
+        # Application-wide: one main window, and text fields still take their own keys.
+        app_wide = Qt.ShortcutContext.ApplicationShortcut
+        self.undo_action = QAction("Undo", self, shortcut=QKeySequence.StandardKey.Undo, triggered=self.model_undo)
+        self.redo_action = QAction("Redo", self, shortcut=QKeySequence("Ctrl+Shift+Z"), triggered=self.model_redo)
+        edit = self.menuBar().addMenu("&Edit")
+        for action in (self.undo_action, self.redo_action):
+            action.setShortcutContext(app_wide)
+            edit.addAction(action)
+        keys = [(str(k), lambda k=k: self._choose_label(k - 1)) for k in range(1, 10)]
+        keys += [("[", lambda: self.brush_slider.setValue(self.brush_slider.value() - 5)),
+                 ("]", lambda: self.brush_slider.setValue(self.brush_slider.value() + 5))]
+        for key, slot in keys:
+            QShortcut(QKeySequence(key), self, activated=slot, context=app_wide)
+
+    def _connect(self) -> None:
+        m = self.model
+        self.shape_list.currentRowChanged.connect(m.set_current)
+        self.label_list.currentRowChanged.connect(self._on_label_row)
+        self.label_list.itemDoubleClicked.connect(self._on_rename)
+        self.add_label_button.clicked.connect(self._on_add_label)
+        self.color_button.clicked.connect(self._on_recolor)
+        self.paint_box.toggled.connect(self._on_paint_toggled)
+        self.eraser_box.toggled.connect(lambda on: m.set_current_label(-1 if on else max(self.label_list.currentRow(), 0)))
+        self.brush_slider.valueChanged.connect(lambda v: setattr(m, "brush_radius", v / 1000.0))
+        m.collection_changed.connect(self._on_collection_changed)
+        m.current_changed.connect(self._on_current_changed)
+        m.labels_changed.connect(self._on_labels_changed)
+        m.scribbles_changed.connect(self._on_scribbles_changed)
+        m.state_changed.connect(self._on_state_changed)
+        m.error.connect(self._on_error)
 
     @property
     def viewport(self):
         if self._viewport is None:
             from app.viewport import PolyscopeViewport
 
-            self._viewport = PolyscopeViewport()
+            self._attach(PolyscopeViewport())
         return self._viewport
+
+    def _attach(self, viewport) -> None:
+        """Make `viewport` this window's: its strokes go to this window's model."""
+        self._viewport = viewport
+        viewport.paint_mode = False
+        viewport.set_paint_handlers(self.model.begin_stroke, self.model.paint_at, self.model.end_stroke)
+
+    # ---------------------------------------------------------------- handlers
+
+    def model_undo(self) -> None:
+        self.model.undo()
+
+    def model_redo(self) -> None:
+        self.model.redo()
+
+    def _choose_label(self, label: int) -> None:
+        if 0 <= label < self.label_list.count():
+            self.eraser_box.setChecked(False)
+            self.label_list.setCurrentRow(label)
+
+    def _on_label_row(self, row: int) -> None:
+        if row >= 0 and not self.eraser_box.isChecked():
+            self.model.set_current_label(row)
+
+    def _on_add_label(self) -> None:
+        name, ok = QInputDialog.getText(self, "Add label", "Name of the new label:")
+        if ok:
+            try:
+                k = self.model.add_label(name)
+            except ValueError as e:
+                self._on_error(str(e))
+                return
+            self.label_list.setCurrentRow(k)
+
+    def _on_rename(self, item: QListWidgetItem) -> None:
+        row = self.label_list.row(item)
+        name, ok = QInputDialog.getText(self, "Rename label", "New name:", text=self.model.label_set.names[row])
+        if ok:
+            try:
+                self.model.rename_label(row, name)
+            except ValueError as e:
+                self._on_error(str(e))
+
+    def _on_recolor(self) -> None:
+        row = self.label_list.currentRow()
+        if row < 0:
+            return
+        color = QColorDialog.getColor(QColor.fromRgbF(*self.model.label_set.colors[row]), self)
+        if color.isValid():
+            self.model.recolor_label(row, (color.redF(), color.greenF(), color.blueF()))
+
+    def _on_paint_toggled(self, on: bool) -> None:
+        self.viewport.paint_mode = on
 
     def _on_collection_changed(self) -> None:
         self.shape_list.clear()
         for entry in self.model.shapes:
             self.shape_list.addItem(QListWidgetItem(f"{entry.name}   [{entry.state}]"))
-        names = ", ".join(self.model.label_set.names) or "none yet"
-        self.labels_info.setText(f"Labels: {names}")
+        self._on_labels_changed()
+        if self.label_list.count():
+            self.label_list.setCurrentRow(0)
         self.statusBar().showMessage(f"{self.model.folder}: {len(self.model.shapes)} shapes")
 
-    def _on_row_changed(self, row: int) -> None:
-        self.model.set_current(row)
+    def _on_labels_changed(self) -> None:
+        row = self.label_list.currentRow()
+        self.label_list.clear()
+        for i, (name, rgb) in enumerate(zip(self.model.label_set.names, self.model.label_set.colors)):
+            self.label_list.addItem(QListWidgetItem(_swatch(rgb), f"{i + 1}  {name}"))
+        if 0 <= row < self.label_list.count():
+            self.label_list.setCurrentRow(row)
 
     def _on_current_changed(self, index: int) -> None:
         if self.shape_list.currentRow() != index:
             self.shape_list.setCurrentRow(index)
         entry = self.model.shapes[index]
-        self.shape_list.item(index).setText(f"{entry.name}   [{entry.state}]")
+        self._on_state_changed(index)
         if entry.state == "error":
             return
         mesh = entry.mesh()
         self.viewport.show(mesh.V_file, mesh.F_file, self.model.face_colors(index))
         self.statusBar().showMessage(f"{entry.name}: {mesh.report.summary()}")
+
+    def _on_scribbles_changed(self, index: int, faces: np.ndarray) -> None:
+        if index == self.model.current:
+            self.viewport.set_colors(self.model.face_colors(index))
+
+    def _on_state_changed(self, index: int) -> None:
+        entry = self.model.shapes[index]
+        self.shape_list.item(index).setText(f"{entry.name}   [{entry.state}]")
 
     def _on_error(self, message: str) -> None:
         self.statusBar().showMessage(message)

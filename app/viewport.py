@@ -2,10 +2,25 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 STRUCTURE = "shape"
 COLORS = "labels"
+
+
+@dataclass(frozen=True)
+class _MouseInput:
+    """The mouse as sampled during one frame (screen pixels)."""
+
+    pos: tuple
+    delta: tuple
+    wheel: float
+    clicked: bool
+    down: tuple
+    shift: bool
+    captured: bool
 
 
 class PolyscopeViewport:
@@ -25,9 +40,110 @@ class PolyscopeViewport:
         ps.set_program_name("scribbleseg viewport")
         ps.set_open_imgui_window_for_user_callback(False)
         ps.init(backend) if backend else ps.init()
+        # The QTimer paces frames; polyscope's own 60 fps cap would silently skip ticks
+        # that come early, and the mouse input of those frames with them.
+        ps.set_max_fps(-1)
         ps.set_ground_plane_mode("shadow_only")
         ps.set_up_dir("z_up")
         self.frames = 0
+        self._paint_mode = False
+        self._painting = False
+        self._handlers = None
+        self._orbit = None  # (center (3,), distance, yaw, pitch) of the paint-mode camera
+        self._input = None
+        ps.set_user_callback(self._on_frame)
+
+    @property
+    def paint_mode(self) -> bool:
+        return self._paint_mode
+
+    @paint_mode.setter
+    def paint_mode(self, on: bool) -> None:
+        """In paint mode the viewport handles the mouse itself, so that a left drag on the
+        shape paints instead of turning the camera (see :meth:`_handle`)."""
+        self._paint_mode = bool(on)
+        self._ps.set_do_default_mouse_interaction(not on)
+
+    def set_paint_handlers(self, begin, paint, end) -> None:
+        """Callbacks for a stroke: ``begin()``, ``paint(point (3,))`` per frame, ``end()``."""
+        self._handlers = (begin, paint, end)
+
+    def _pick(self, xy):
+        r = self._ps.pick(screen_coords=(int(xy[0]), int(xy[1])))
+        return np.asarray(r.position, dtype=np.float64) if r.is_hit and r.structure_name == STRUCTURE else None
+
+    def _on_frame(self) -> None:
+        """Polyscope's user callback: only samples the mouse. Picking and color updates
+        happen in :meth:`tick` once the frame is done, so no polyscope call is nested
+        inside a frame."""
+        import polyscope.imgui as psim
+
+        io = psim.GetIO()
+        self._input = _MouseInput(
+            pos=tuple(io.MousePos), delta=tuple(io.MouseDelta), wheel=float(io.MouseWheel),
+            clicked=psim.IsMouseClicked(0), down=(psim.IsMouseDown(0), psim.IsMouseDown(1), psim.IsMouseDown(2)),
+            shift=bool(io.KeyShift), captured=bool(io.WantCaptureMouse),
+        )
+
+    def _handle(self, inp: _MouseInput) -> None:
+        """Paint mode: a left drag that starts on the shape paints; a left drag that starts
+        elsewhere, Shift+left or right drag orbits, middle drag pans, the wheel zooms."""
+        if self._handlers is None or not (self._paint_mode or self._painting):
+            return
+        begin, paint, end = self._handlers
+        if self._painting:
+            if inp.down[0]:
+                p = self._pick(inp.pos)
+                if p is not None:
+                    paint(p)
+            else:
+                self._painting = False
+                end()
+            return
+        if inp.captured:
+            return
+        if inp.clicked and not inp.shift:
+            p = self._pick(inp.pos)
+            if p is not None:
+                self._painting = True
+                begin()
+                paint(p)
+                return
+        self._camera(inp)
+
+    def _camera(self, inp: _MouseInput) -> None:
+        """Orbit (left off-shape, Shift+left, right), pan (middle), zoom (wheel) in paint mode."""
+        if self._orbit is None:
+            return
+        center, dist, yaw, pitch = self._orbit
+        dx, dy = inp.delta
+        moved = False
+        if (inp.down[0] or inp.down[1]) and (dx or dy):
+            yaw -= 0.008 * dx
+            pitch = float(np.clip(pitch + 0.008 * dy, -1.5, 1.5))
+            moved = True
+        if inp.down[2] and (dx or dy):
+            right, up = self._camera_axes(yaw, pitch)
+            center = center + dist * 0.0015 * (-dx * right + dy * up)
+            moved = True
+        if inp.wheel:
+            dist *= 0.9**inp.wheel
+            moved = True
+        if moved:
+            self._orbit = (center, dist, yaw, pitch)
+            self._apply_orbit()
+
+    @staticmethod
+    def _camera_axes(yaw, pitch):
+        forward = -np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)])
+        right = np.cross(forward, [0.0, 0.0, 1.0])
+        right /= max(np.linalg.norm(right), 1e-12)
+        return right, np.cross(right, forward)
+
+    def _apply_orbit(self) -> None:
+        center, dist, yaw, pitch = self._orbit
+        offset = dist * np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)])
+        self._ps.look_at(center + offset, center)
 
     def show(self, V: np.ndarray, F: np.ndarray, colors: np.ndarray) -> None:
         """Replace the shown mesh (V (n, 3), F (m, 3)) colored by `colors` (m, 3)."""
@@ -38,15 +154,26 @@ class PolyscopeViewport:
         # a three-quarter view from above, framing the bounding box
         lo, hi = V.min(axis=0), V.max(axis=0)
         center, size = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
-        ps.look_at(center + size * np.array([0.7, 1.0, 0.55]), center)
+        d = np.array([0.7, 1.0, 0.55])
+        self._orbit = (center, size * float(np.linalg.norm(d)), float(np.arctan2(d[1], d[0])),
+                       float(np.arcsin(d[2] / np.linalg.norm(d))))
+        self._apply_orbit()
 
     def set_colors(self, colors: np.ndarray) -> None:
         """Update the face colors of the shown mesh in place, (m, 3)."""
-        self._ps.get_surface_mesh(STRUCTURE).add_color_quantity(COLORS, colors, defined_on="faces", enabled=True)
+        if self._ps.has_surface_mesh(STRUCTURE):
+            self._ps.get_surface_mesh(STRUCTURE).add_color_quantity(COLORS, colors, defined_on="faces", enabled=True)
+
+    def window_size(self) -> tuple[int, int]:
+        return tuple(self._ps.get_window_size())
 
     def tick(self) -> None:
+        """Render one frame, then act on the mouse input it sampled."""
+        self._input = None
         self._ps.frame_tick()
         self.frames += 1
+        if self._input is not None:
+            self._handle(self._input)
 
     def screenshot(self, path: str) -> None:
         self._ps.screenshot(path, transparent_bg=False)

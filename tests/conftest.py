@@ -20,6 +20,14 @@ def icosphere(subdivisions: int = 3, radius: float = 1.0) -> tuple[np.ndarray, n
     return np.asarray(s.vertices, dtype=np.float64), np.asarray(s.faces, dtype=np.int64)
 
 
+def write_off(path, V, faces) -> None:
+    """Write an OFF file with full float precision; `faces` may hold polygons."""
+    lines = ["OFF", f"{len(V)} {len(faces)} 0"]
+    lines += [" ".join(f"{x:.17g}" for x in v) for v in V]
+    lines += [" ".join(str(int(i)) for i in [len(f), *f]) for f in faces]
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
 @pytest.fixture
 def sphere():
     return icosphere(3)

@@ -33,6 +33,7 @@ def test_segment_then_predict_a_planted_folder(tmp_path):
 
     from scribbleseg_core.export import read_ply_labels, read_seg
     from scribbleseg_core.scribbles import Scribbles, Stroke, write_scribbles
+    from tests.conftest import write_off
     from tests.core.planted import LABELS, creature, stroke_faces
 
     data = tmp_path / "data"
@@ -41,9 +42,7 @@ def test_segment_then_predict_a_planted_folder(tmp_path):
     for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1)]):
         mesh, gt = creature(limb, head, seed=i)
         name = f"{i + 1}.off"
-        lines = ["OFF", f"{len(mesh.V)} {len(mesh.F)} 0"] + [f"{x:.17g} {y:.17g} {z:.17g}" for x, y, z in mesh.V]
-        lines += [f"3 {a} {b} {c}" for a, b, c in mesh.F]
-        (data / name).write_text("\n".join(lines) + "\n")
+        write_off(data / name, mesh.V, mesh.F)
         gts[i + 1] = gt
         if i < 2:
             strokes = tuple(Stroke(lab, stroke_faces(mesh, gt, lab)) for lab in range(len(LABELS)))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from PySide6.QtCore import Qt
 
 pytest.importorskip("PySide6")
 
@@ -18,13 +19,13 @@ def viewport():
 def test_opens_the_demo_collection_and_shows_shapes(qtbot, viewport, tmp_path):
     from app.main_window import DEFAULT_COLLECTION, MainWindow
 
-    w = MainWindow(viewport=viewport)
+    w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
     qtbot.addWidget(w)
     w.show()
     assert w.model.folder == DEFAULT_COLLECTION
     assert w.shape_list.count() == 10
     assert "[scribbled]" in w.shape_list.item(0).text()
-    assert "leg" in w.labels_info.text()
+    assert [w.label_list.item(i).text() for i in range(w.label_list.count())] == ["1  body", "2  head", "3  leg", "4  tail"]
     qtbot.waitUntil(lambda: viewport.frames > 3, timeout=5000)  # the QTimer drives frames
     w.shape_list.setCurrentRow(3)
     assert w.model.current == 3
@@ -42,7 +43,7 @@ def test_a_bad_mesh_is_reported_and_the_rest_stays(qtbot, viewport, tmp_path):
 
     (tmp_path / "good.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 2 3 4\nf 1 3 4\n")
     (tmp_path / "bad.off").write_text("OFF\n3 1 0\n0 0 0\n")
-    w = MainWindow(str(tmp_path), viewport=viewport)
+    w = MainWindow(str(tmp_path), viewport=viewport, autosave_dir=tmp_path / "autosave")
     qtbot.addWidget(w)
     assert w.shape_list.count() == 2
     w.shape_list.setCurrentRow(0)  # bad.off sorts first
@@ -50,3 +51,68 @@ def test_a_bad_mesh_is_reported_and_the_rest_stays(qtbot, viewport, tmp_path):
     assert "bad.off: truncated" in w.statusBar().currentMessage()
     w.shape_list.setCurrentRow(1)
     assert w.model.current == 1 and w.model.shapes[1].state == "untouched"
+
+
+def _drag(viewport, points):
+    """Press at the first screen point, move through the rest, release: a mouse stroke."""
+    import polyscope.imgui as psim
+
+    io = psim.GetIO()
+    io.AddMousePosEvent(*points[0])
+    viewport.tick()
+    io.AddMouseButtonEvent(0, True)
+    viewport.tick()
+    for p in points[1:]:
+        io.AddMousePosEvent(*p)
+        viewport.tick()
+    io.AddMouseButtonEvent(0, False)
+    viewport.tick()
+    viewport.tick()
+
+
+def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
+    import json
+
+    from app.main_window import MainWindow
+
+    w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(w)
+    w.show()
+    w.activateWindow()
+    qtbot.waitActive(w)
+    w.shape_list.setCurrentRow(1)  # quadruped_02: untouched
+    assert w.model.shapes[1].state == "untouched"
+    w.paint_box.setChecked(True)
+    qtbot.keyClick(w, Qt.Key.Key_2)  # head
+    assert w.model.current_label == 1
+    width, height = viewport.window_size()
+    cx, cy = width // 2, height // 2
+    _drag(viewport, [(cx - 40, cy), (cx + 40, cy)])  # a fast drag: 2 samples far apart
+    layer = w.model.layer(1)
+    painted = np.flatnonzero(layer.labels == 1)
+    assert len(painted) > 20
+    assert w.model.shapes[1].state == "scribbled" and "[scribbled]" in w.shape_list.item(1).text()
+    saved = json.loads((tmp_path / "autosave" / "quadruped_02.json").read_text())
+    assert saved["strokes"][0]["label"] == 1 and len(saved["strokes"][0]["faces"]) == len(painted)
+    # the painted faces form one connected band: no gaps between the two samples
+    from scribbleseg_core.metrics import split_components
+
+    mesh = w.model.shapes[1].mesh()
+    sub = np.isin(np.arange(mesh.num_file_faces), painted)
+    comps = split_components(mesh.F_file, sub.astype(int))
+    assert len(np.unique(comps[painted])) == 1
+    # eraser, then undo / redo (Ctrl+Z, Ctrl+Shift+Z)
+    w.eraser_box.setChecked(True)
+    _drag(viewport, [(cx - 10, cy), (cx + 10, cy)])
+    assert (layer.labels == 1).sum() < len(painted)
+    qtbot.keyClick(w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    np.testing.assert_array_equal(np.flatnonzero(layer.labels == 1), painted)
+    qtbot.keyClick(w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert (layer.labels == -1).all() and w.model.shapes[1].state == "untouched"
+    qtbot.keyClick(w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
+    np.testing.assert_array_equal(np.flatnonzero(layer.labels == 1), painted)
+    # a drag that starts off the shape moves the camera and paints nothing
+    w.eraser_box.setChecked(False)
+    before = layer.labels.copy()
+    _drag(viewport, [(5, 5), (60, 40)])
+    np.testing.assert_array_equal(layer.labels, before)

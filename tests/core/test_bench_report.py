@@ -12,6 +12,7 @@ from scribbleseg_core.export import write_seg
 from scribbleseg_core.network import NetworkParams
 from scribbleseg_core.optimize import SegmentParams
 from scribbleseg_core.scribbles import Scribbles, Stroke, write_scribbles
+from tests.conftest import write_off
 from tests.core.planted import LABELS, creature, stroke_faces
 
 FAST = SegmentParams(network=NetworkParams(epochs=20, warm_epochs=8, max_faces_per_shape=2000))
@@ -27,8 +28,7 @@ def planted_root(tmp_path_factory):
     for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1), (1.4, 0.8)]):
         mesh, gt = creature(limb, head, seed=i)
         name = str(i + 1)
-        lines = ["OFF", f"{len(mesh.V)} {len(mesh.F)} 0"] + [f"{x:.17g} {y:.17g} {z:.17g}" for x, y, z in mesh.V]
-        (cat / f"{name}.off").write_text("\n".join(lines + [f"3 {a} {b} {c}" for a, b, c in mesh.F]) + "\n")
+        write_off(cat / f"{name}.off", mesh.V, mesh.F)
         write_seg(cat / "labels" / f"{name}.seg", gt)
         strokes = tuple(Stroke(lab, stroke_faces(mesh, gt, lab)) for lab in range(len(LABELS)))
         write_scribbles(cat / "scribbles" / f"{name}.json", Scribbles(f"{name}.off", len(gt), LABELS, strokes))

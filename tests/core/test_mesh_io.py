@@ -9,14 +9,7 @@ import trimesh
 from scribbleseg_core.errors import MeshLoadError, ScribblesegError
 from scribbleseg_core.geometry import face_areas, normalize
 from scribbleseg_core.mesh_io import MESH_EXTENSIONS, load_mesh, repair
-from tests.conftest import icosphere
-
-
-def _write_off(path, V, faces):
-    lines = ["OFF", f"{len(V)} {len(faces)} 0"]
-    lines += [" ".join(f"{x:.17g}" for x in v) for v in V]
-    lines += [" ".join(str(i) for i in [len(f), *f]) for f in faces]
-    path.write_text("\n".join(lines) + "\n")
+from tests.conftest import icosphere, write_off
 
 
 @pytest.mark.parametrize("ext", ["off", "obj", "ply", "stl", "glb"])
@@ -24,7 +17,7 @@ def test_every_format_loads_the_same_surface(tmp_path, ext):
     V, F = icosphere(2)
     path = tmp_path / f"s.{ext}"
     if ext == "off":
-        _write_off(path, V, F)
+        write_off(path, V, F)
     else:
         trimesh.Trimesh(V, F, process=False).export(path)
     mesh = load_mesh(path)
@@ -40,7 +33,7 @@ def test_file_face_order_is_kept_for_off_and_obj(tmp_path):
     V, F = icosphere(1)
     rng = np.random.default_rng(0)  # fixed seed: a shuffled face order must survive
     F = F[rng.permutation(len(F))]
-    _write_off(tmp_path / "a.off", V, F)
+    write_off(tmp_path / "a.off", V, F)
     obj = "\n".join([*(f"v {x} {y} {z}" for x, y, z in V), "g part", *(f"f {a+1} {b+1} {c+1}" for a, b, c in F)])
     (tmp_path / "a.obj").write_text(obj + "\n")
     for name in ("a.off", "a.obj"):
@@ -52,7 +45,7 @@ def test_file_face_order_is_kept_for_off_and_obj(tmp_path):
 def test_polygons_are_fan_triangulated_in_order(tmp_path):
     V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 1.0]], float)
     faces = [[0, 3, 2, 1], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]]
-    _write_off(tmp_path / "pyr.off", V, faces)
+    write_off(tmp_path / "pyr.off", V, faces)
     mesh = load_mesh(tmp_path / "pyr.off")
     np.testing.assert_array_equal(mesh.F_file[:2], [[0, 3, 2], [0, 2, 1]])
     assert mesh.num_file_faces == 6 and mesh.report.is_closed_manifold
@@ -115,7 +108,7 @@ def test_normalize_centers_and_scales_to_unit_area(sphere):
 
 def test_normalized_copy_leaves_export_coordinates_alone(tmp_path, sphere):
     V, F = sphere
-    _write_off(tmp_path / "s.off", V * 10, F)
+    write_off(tmp_path / "s.off", V * 10, F)
     mesh = load_mesh(tmp_path / "s.off")
     assert np.isclose(face_areas(mesh.normalized(), mesh.F).sum(), 1.0)
     np.testing.assert_allclose(mesh.V_file, V * 10)

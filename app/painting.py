@@ -1,0 +1,122 @@
+"""Scribble editing on file faces: strokes, brush, undo and redo. No widgets here."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+#: Label value of the eraser.
+ERASE = -1
+
+
+@dataclass(frozen=True)
+class Edit:
+    """One undo step: faces (k,) and their labels before and after a stroke."""
+
+    faces: np.ndarray
+    before: np.ndarray
+    after: np.ndarray
+
+
+class ScribbleLayer:
+    """The scribble labels of one shape, (m0,) int64 with -1 unscribbled, and its history.
+
+    A stroke is ``begin()``, any number of ``paint(faces, label)``, ``end()``; the whole
+    stroke is one undo step.
+    """
+
+    def __init__(self, labels: np.ndarray):
+        self.labels = np.asarray(labels, dtype=np.int64).copy()
+        self._undo: list[Edit] = []
+        self._redo: list[Edit] = []
+        self._stroke: dict[int, int] | None = None  # face -> label before the stroke
+
+    @property
+    def in_stroke(self) -> bool:
+        return self._stroke is not None
+
+    def begin(self) -> None:
+        self._stroke = {}
+
+    def paint(self, faces: np.ndarray, label: int) -> np.ndarray:
+        """Set `faces` to `label` (ERASE clears them); returns the faces that changed."""
+        if self._stroke is None:
+            raise RuntimeError("paint() outside a stroke: call begin() first")
+        faces = np.unique(np.asarray(faces, dtype=np.int64))
+        changed = faces[self.labels[faces] != label]
+        for f in changed:
+            self._stroke.setdefault(int(f), int(self.labels[f]))
+        self.labels[changed] = label
+        return changed
+
+    def end(self) -> bool:
+        """Close the stroke; returns whether it changed anything (an undo step was made)."""
+        stroke, self._stroke = self._stroke, None
+        if not stroke:
+            return False
+        faces = np.fromiter(stroke.keys(), np.int64, len(stroke))
+        before = np.fromiter(stroke.values(), np.int64, len(stroke))
+        keep = self.labels[faces] != before  # painted over and back: no change
+        if not keep.any():
+            return False
+        self._undo.append(Edit(faces[keep], before[keep], self.labels[faces[keep]].copy()))
+        self._redo.clear()
+        return True
+
+    def undo(self) -> np.ndarray | None:
+        """Revert the last stroke; returns the faces changed, or None if nothing to undo."""
+        if self.in_stroke or not self._undo:
+            return None
+        e = self._undo.pop()
+        self.labels[e.faces] = e.before
+        self._redo.append(e)
+        return e.faces
+
+    def redo(self) -> np.ndarray | None:
+        if self.in_stroke or not self._redo:
+            return None
+        e = self._redo.pop()
+        self.labels[e.faces] = e.after
+        self._undo.append(e)
+        return e.faces
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+
+class Brush:
+    """Faces under a round brush on a mesh: those whose centroid lies within `radius` of
+    the brush center, with the path between two samples filled so fast drags leave no gaps.
+
+    Parameters
+    ----------
+    centroids : (m, 3) float64 ndarray
+        Face centroids.
+    scale : float
+        Length that radius 1.0 means (the mesh's bounding-box diagonal).
+    """
+
+    def __init__(self, centroids: np.ndarray, scale: float):
+        self.tree = cKDTree(centroids)
+        self.scale = float(scale)
+
+    def faces_along(self, p: np.ndarray, q: np.ndarray | None, radius: float) -> np.ndarray:
+        """Faces within ``radius · scale`` of the segment from `q` (previous sample, or
+        None) to `p`, (k,) int64."""
+        r = radius * self.scale
+        p = np.asarray(p, dtype=np.float64)
+        if q is None:
+            pts = p[None]
+        else:
+            n = max(1, int(np.ceil(np.linalg.norm(p - np.asarray(q)) / (0.5 * r))))
+            t = np.linspace(0.0, 1.0, n + 1)[:, None]
+            pts = np.asarray(q)[None] * (1 - t) + p[None] * t
+        hits = self.tree.query_ball_point(pts, r)
+        return np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in hits])) if len(hits) else np.zeros(0, np.int64)
