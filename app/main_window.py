@@ -9,6 +9,7 @@ from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QAction, QColor, QIcon, QKeySequence, QPixmap, QShortcut
 from PySide6.QtWidgets import (
     QCheckBox,
+    QFileDialog,
     QColorDialog,
     QHBoxLayout,
     QInputDialog,
@@ -17,12 +18,14 @@ from PySide6.QtWidgets import (
     QListWidgetItem,
     QMainWindow,
     QMessageBox,
+    QProgressBar,
     QPushButton,
     QSlider,
     QVBoxLayout,
     QWidget,
 )
 
+from app.energy_plot import EnergyPlot
 from app.model import CollectionModel
 from scribbleseg_core import __version__
 
@@ -97,10 +100,22 @@ class MainWindow(QMainWindow):
         row.addWidget(QLabel("Brush ([ ])"))
         row.addWidget(self.brush_slider)
         layout.addLayout(row)
-        note = QLabel("Segmenting from the app is not built yet: use `scribbleseg segment` on the folder.")
-        note.setWordWrap(True)
-        layout.addWidget(note)
+        self.run_button = QPushButton("Segment collection")
+        self.stop_button = QPushButton("Stop")
+        self.stop_button.setEnabled(False)
+        self.export_button = QPushButton("Export all…")
+        row = QHBoxLayout()
+        row.addWidget(self.run_button)
+        row.addWidget(self.stop_button)
+        row.addWidget(self.export_button)
+        layout.addLayout(row)
+        self.progress = QProgressBar()
+        self.progress.setFormat("%v / %m")
+        layout.addWidget(self.progress)
+        self.energy_plot = EnergyPlot()
+        layout.addWidget(self.energy_plot)
         self.setCentralWidget(panel)
+        self.worker = None
         # Application-wide: one main window, and text fields still take their own keys.
         app_wide = Qt.ShortcutContext.ApplicationShortcut
         self.undo_action = QAction("Undo", self, shortcut=QKeySequence.StandardKey.Undo, triggered=self.model_undo)
@@ -125,6 +140,9 @@ class MainWindow(QMainWindow):
         self.paint_box.toggled.connect(self._on_paint_toggled)
         self.eraser_box.toggled.connect(lambda on: m.set_current_label(-1 if on else max(self.label_list.currentRow(), 0)))
         self.brush_slider.valueChanged.connect(lambda v: setattr(m, "brush_radius", v / 1000.0))
+        self.run_button.clicked.connect(self.run_collection)
+        self.stop_button.clicked.connect(self.stop_run)
+        self.export_button.clicked.connect(self._on_export)
         m.collection_changed.connect(self._on_collection_changed)
         m.current_changed.connect(self._on_current_changed)
         m.labels_changed.connect(self._on_labels_changed)
@@ -228,6 +246,99 @@ class MainWindow(QMainWindow):
     def _on_state_changed(self, index: int) -> None:
         entry = self.model.shapes[index]
         self.shape_list.item(index).setText(f"{entry.name}   [{entry.state}]")
+
+    # ---------------------------------------------------------------- run
+
+    def run_collection(self) -> None:
+        """Segment the scribbled shapes and predict the others, in a worker thread."""
+        from superqt.utils import thread_worker
+
+        from app.runner import collection_run, limit_threads
+
+        m = self.model
+        usable = [i for i, e in enumerate(m.shapes) if e.state != "error"]
+        scribbles = [m.layer(i).labels.copy() for i in usable]
+        if not any((s >= 0).any() for s in scribbles):
+            self._on_error("paint at least one stroke before segmenting")
+            return
+        limit_threads(1)
+        meshes = [m.shapes[i].mesh() for i in usable]
+        self._run_indices = usable
+        self.energy_plot.clear()
+        self.progress.setRange(0, len(usable))
+        self.progress.setValue(0)
+        self.worker = thread_worker(collection_run, start_thread=False)(meshes, scribbles, m.label_set.names)
+        self.worker.yielded.connect(self._on_run_message)
+        self.worker.errored.connect(lambda e: self._on_error(f"segmentation failed: {e}"))
+        self.worker.finished.connect(self._on_run_finished)
+        self.run_button.setEnabled(False)
+        self.stop_button.setEnabled(True)
+        self.statusBar().showMessage("computing shape signatures…")
+        self.worker.start()
+
+    def stop_run(self) -> None:
+        if self.worker is not None:
+            self.worker.quit()  # stops between two steps; labels so far stay
+
+    def _on_run_message(self, msg) -> None:
+        from app.runner import FeaturesDone, Predicted, StepDone
+
+        m = self.model
+        if isinstance(msg, FeaturesDone):
+            self.progress.setValue(msg.done)
+            return
+        if isinstance(msg, StepDone):
+            snap = msg.snapshot
+            for j, labels in zip(msg.indices, msg.file_labels):
+                self._set_result(self._run_indices[j], labels, "labeled")
+            if snap.iteration >= 1 and snap.phase in ("train", "graphcut"):
+                self.energy_plot.add(snap.energy.total)
+            if snap.done:
+                m.trained_model = snap.model
+            self.statusBar().showMessage(f"iteration {snap.iteration}: {snap.phase} ({snap.seconds:.1f} s)")
+        elif isinstance(msg, Predicted):
+            self._set_result(self._run_indices[msg.index], msg.file_labels, "predicted")
+
+    def _set_result(self, index: int, labels, state: str) -> None:
+        entry = self.model.shapes[index]
+        entry.labels = labels
+        entry.state = state
+        self._on_state_changed(index)
+        if index == self.model.current:
+            self.viewport.set_colors(self.model.face_colors(index))
+
+    def _on_run_finished(self) -> None:
+        self.run_button.setEnabled(True)
+        self.stop_button.setEnabled(False)
+        self.worker = None
+        self.statusBar().showMessage("segmentation finished")
+
+    # ---------------------------------------------------------------- export
+
+    def _on_export(self) -> None:
+        folder = QFileDialog.getExistingDirectory(self, "Export labeled meshes to")
+        if folder:
+            self.export_all(folder)
+
+    def export_all(self, folder) -> list:
+        """Write every shape that has a result (or scribbles) as PLY, SEG, OBJ, GLB, JSON."""
+        from scribbleseg_core.errors import ScribblesegError
+        from scribbleseg_core.export import export_labeled_mesh
+
+        written = []
+        for i, entry in enumerate(self.model.shapes):
+            if entry.state == "error":
+                continue
+            labels = entry.labels if entry.labels is not None else (self.model.layer(i).labels if i in self.model._layers else None)
+            if labels is None:
+                continue
+            mesh = entry.mesh()
+            try:
+                written += export_labeled_mesh(folder, entry.name, mesh.V_file, mesh.F_file, labels, self.model.label_set)
+            except (OSError, ScribblesegError) as e:
+                self._on_error(f"{entry.name}: export failed: {e}")
+        self.statusBar().showMessage(f"exported {len(written)} files to {folder}")
+        return written
 
     def _on_error(self, message: str) -> None:
         self.statusBar().showMessage(message)

@@ -72,6 +72,7 @@ class CollectionModel:
         self._layers: dict[int, ScribbleLayer] = {}
         self._brushes: dict[int, Brush] = {}
         self._last_point = None
+        self.trained_model = None
         self.collection_changed = Event()
         self.current_changed = Event()
         self.error = Event()

@@ -116,3 +116,33 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     before = layer.labels.copy()
     _drag(viewport, [(5, 5), (60, 40)])
     np.testing.assert_array_equal(layer.labels, before)
+
+
+def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_path, monkeypatch):
+    import trimesh
+
+    from app.main_window import MainWindow
+    from scribbleseg_core.export import read_ply_labels
+
+    monkeypatch.setenv("SCRIBBLESEG_CACHE_DIR", str(tmp_path / "cache"))
+    w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(w)
+    w.show()
+    frames_before = viewport.frames
+    w.run_button.click()
+    assert not w.run_button.isEnabled() and w.stop_button.isEnabled()
+    qtbot.waitUntil(lambda: w.worker is None, timeout=300_000)
+    assert viewport.frames > frames_before + 10  # the window kept rendering during the run
+    states = [e.state for e in w.model.shapes]
+    assert states.count("labeled") == 3 and states.count("predicted") == 7
+    assert len(w.energy_plot.values) >= 2
+    assert w.model.trained_model is not None
+    from scribbleseg_core.export import read_seg
+
+    gt = read_seg(w.model.shapes[0].path.parent / "labels" / "quadruped_01.seg")
+    assert (w.model.shapes[0].labels == gt).mean() > 0.9
+    written = w.export_all(tmp_path / "export")
+    assert len(written) == 10 * 6  # ply, seg, obj, mtl, glb, json per shape
+    for e in w.model.shapes:
+        np.testing.assert_array_equal(read_ply_labels(tmp_path / "export" / f"{e.name}.ply"), e.labels)
+    assert len(trimesh.load(tmp_path / "export" / "quadruped_05.ply", process=False).faces) == len(w.model.shapes[4].labels)

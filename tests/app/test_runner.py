@@ -1,0 +1,35 @@
+"""The worker's generator, without Qt: features, streamed steps, predictions."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.runner import FeaturesDone, Predicted, StepDone, collection_run
+from scribbleseg_core.network import NetworkParams
+from scribbleseg_core.optimize import SegmentParams
+from tests.core.planted import LABELS, creature, stroke_faces
+
+
+def test_collection_run_streams_steps_and_predicts_the_rest(monkeypatch, tmp_path):
+    monkeypatch.setenv("SCRIBBLESEG_CACHE_DIR", str(tmp_path))
+    meshes, scribbles, gts = [], [], []
+    for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1)]):
+        mesh, gt = creature(limb, head, seed=i)
+        meshes.append(mesh)
+        gts.append(gt)
+        scr = None
+        if i < 2:
+            scr = np.full(len(gt), -1)
+            for lab in range(3):
+                scr[stroke_faces(mesh, gt, lab)] = lab
+        scribbles.append(scr)
+    params = SegmentParams(network=NetworkParams(epochs=20, warm_epochs=8, max_faces_per_shape=2000))
+    msgs = list(collection_run(meshes, scribbles, LABELS, params))
+    assert [m.done for m in msgs if isinstance(m, FeaturesDone)] == [1, 2, 3]
+    steps = [m for m in msgs if isinstance(m, StepDone)]
+    assert steps[0].snapshot.phase == "graphcut" and steps[-1].snapshot.done
+    assert steps[-1].indices == (0, 1)
+    for i, labels in zip(steps[-1].indices, steps[-1].file_labels):
+        assert (labels == gts[i]).mean() > 0.9
+    (pred,) = [m for m in msgs if isinstance(m, Predicted)]
+    assert pred.index == 2 and (pred.file_labels == gts[2]).mean() > 0.85
