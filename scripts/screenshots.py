@@ -1,12 +1,15 @@
 """Screenshots of the app for the README: ``python scripts/screenshots.py`` (headless).
 
-Writes docs/app_window.png (the Qt window, offscreen) and docs/app_viewport.png (polyscope, EGL).
+Writes docs/app_window.png (the Qt window, offscreen) and docs/app_viewport.png (polyscope,
+EGL) with the demo scribbles, then docs/app_result_window.png and docs/app_result_viewport.png
+after "Segment collection" (a shape that had no scribbles, predicted).
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,7 +33,18 @@ def main(out: Path = ROOT / "docs") -> None:
     out.mkdir(parents=True, exist_ok=True)
     w.grab().save(str(out / "app_window.png"))
     viewport.screenshot(str(out / "app_viewport.png"))
-    print(f"wrote {out / 'app_window.png'} and {out / 'app_viewport.png'}")
+    w.run_collection()
+    while w.worker is not None:  # paced like the app's QTimer, leaving the worker a core
+        app.processEvents()
+        viewport.tick()
+        time.sleep(0.016)
+    w.shape_list.setCurrentRow(4)  # no scribbles: predicted
+    for _ in range(5):
+        app.processEvents()
+        viewport.tick()
+    w.grab().save(str(out / "app_result_window.png"))
+    viewport.screenshot(str(out / "app_result_viewport.png"))
+    print(f"wrote screenshots to {out}")
 
 
 if __name__ == "__main__":
