@@ -133,6 +133,7 @@ class FaceClassifier:
         import torch
 
         torch.set_num_threads(self.params.threads)
+        self.net.eval()  # dropout off, whether trained here or loaded from a file
         with torch.no_grad():
             Z = torch.from_numpy(((np.asarray(X, dtype=np.float64) - self.mean) / self.std).astype(np.float32))
             return torch.log_softmax(self.net(Z), dim=1).numpy().astype(np.float64)

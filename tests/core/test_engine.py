@@ -84,6 +84,8 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     save_model(tmp_path / "m", model)
     back = load_model(tmp_path / "m", expected_labels=LABELS)
     np.testing.assert_array_equal(predict_shape(back, shapes[3])[0], predict_shape(model, shapes[3])[0])
+    x = shapes[3].network_input(model.params.context_scales)
+    np.testing.assert_allclose(back.classifier.log_proba(x), model.classifier.log_proba(x), atol=1e-6)  # no dropout noise
     with pytest.raises(ModelFileError, match="trained on labels"):
         load_model(tmp_path / "m", expected_labels=("a", "b"))
     import json
