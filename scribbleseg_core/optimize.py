@@ -96,7 +96,8 @@ class Snapshot:
     seconds : float
         Time this step took.
     model : TrainedModel or None
-        The trained model (from the first training on).
+        The trained model (from the first training on). Unlike the label arrays it is not
+        a copy: later training steps update it in place, so take it from the last snapshot.
     """
 
     iteration: int
@@ -171,6 +172,7 @@ def segment_collection(
     model = None
     U_neu = None
     best = np.inf
+    it = 0
     for it in range(1, params.max_iterations + 1):
         # (3b) fix Y, train the network on every face with its current label
         t = time.perf_counter()
