@@ -329,8 +329,8 @@ class MainWindow(QMainWindow):
         for i, entry in enumerate(self.model.shapes):
             if entry.state == "error":
                 continue
-            labels = entry.labels if entry.labels is not None else (self.model.layer(i).labels if i in self.model._layers else None)
-            if labels is None:
+            labels = entry.labels if entry.labels is not None else self.model.layer(i).labels
+            if not (labels >= 0).any():  # neither a result nor scribbles
                 continue
             mesh = entry.mesh()
             try:
