@@ -1,46 +1,22 @@
-"""What the app's worker thread runs: features, the optimization, predictions. No Qt here.
+"""What the app's worker thread runs: the core's :func:`collection_run`, on one thread.
 
-:func:`collection_run` is a generator of small frozen messages; the window wraps it in a
-superqt ``thread_worker`` and applies each message on the main thread.
+Re-exports the pipeline's messages so the window imports them from one place.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import replace
 
 import numpy as np
 
 from scribbleseg_core.mesh_io import Mesh
-from scribbleseg_core.optimize import SegmentParams, Snapshot, predict_shape, segment_collection
-from scribbleseg_core.shape import prepare_shape
+from scribbleseg_core.optimize import SegmentParams
+from scribbleseg_core.pipeline import FeaturesDone, Predicted, StepDone
+from scribbleseg_core.pipeline import collection_run as _collection_run
 
-
-@dataclass(frozen=True)
-class FeaturesDone:
-    """Shape `index` is prepared; `done` of `total`."""
-
-    index: int
-    done: int
-    total: int
-
-
-@dataclass(frozen=True, eq=False)
-class StepDone:
-    """One optimization step: labels per file face for the scribbled shapes `indices`."""
-
-    snapshot: Snapshot
-    indices: tuple[int, ...]
-    file_labels: tuple[np.ndarray, ...]
-
-
-@dataclass(frozen=True, eq=False)
-class Predicted:
-    """Labels per file face predicted for unscribbled shape `index`."""
-
-    index: int
-    file_labels: np.ndarray
+__all__ = ["FeaturesDone", "Predicted", "StepDone", "collection_run", "limit_threads"]
 
 
 def limit_threads(n: int = 1) -> None:
@@ -61,31 +37,8 @@ def collection_run(
     label_names: Sequence[str],
     params: SegmentParams = SegmentParams(),
 ) -> Iterator[FeaturesDone | StepDone | Predicted]:
-    """Segment the scribbled shapes, then predict the others.
-
-    Parameters
-    ----------
-    meshes : sequence of Mesh
-    scribbles : sequence of (m0,) int ndarray or None
-        Scribble label per file face of each mesh (copies: the worker owns them).
-    label_names : sequence of str
-    params : SegmentParams
-    """
-    from dataclasses import replace
-
+    """:func:`scribbleseg_core.pipeline.collection_run` with torch on one thread, so the
+    renderer keeps the other core. A generator function itself (``yield from``): superqt's
+    ``thread_worker`` only makes a streaming worker of generator functions."""
     params = replace(params, network=replace(params.network, threads=1))
-    shapes = []
-    for i, (mesh, scr) in enumerate(zip(meshes, scribbles)):
-        has = scr is not None and bool((scr >= 0).any())
-        shapes.append(prepare_shape(mesh, scr if has else None))
-        yield FeaturesDone(i, i + 1, len(meshes))
-    scribbled = tuple(i for i, s in enumerate(shapes) if s.is_scribbled)
-    last = None
-    for snap in segment_collection(shapes, label_names, params):
-        last = snap
-        labels = tuple(meshes[i].labels_to_file(lab) for i, lab in zip(scribbled, snap.labels))
-        yield StepDone(snap, scribbled, labels)
-    for i, s in enumerate(shapes):
-        if not s.is_scribbled and last is not None and last.model is not None:
-            labels, _ = predict_shape(last.model, s)
-            yield Predicted(i, meshes[i].labels_to_file(labels))
+    yield from _collection_run(meshes, scribbles, label_names, params)

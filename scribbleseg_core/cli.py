@@ -36,18 +36,20 @@ def _cmd_info(args) -> int:
 
 
 def _progress(items, quiet: bool, desc: str):
-    if quiet:
-        return items
+    return items if quiet else _bar(None, desc, items)
+
+
+def _bar(total, desc: str, items=None):
     from tqdm import tqdm
 
-    return tqdm(items, desc=desc, unit="shape", file=sys.stderr, leave=False)
+    return tqdm(items, total=total, desc=desc, unit="shape", file=sys.stderr, leave=False)
 
 
-def _write_outputs(out: Path, mesh, labels, label_names) -> None:
+def _write_file_labels(out: Path, mesh, file_labels, label_names) -> None:
+    """``out/<mesh>.seg`` and ``.ply`` for labels per file face."""
     from scribbleseg_core.export import export_labeled_mesh
     from scribbleseg_core.labels import LabelSet
 
-    file_labels = mesh.labels_to_file(labels)
     export_labeled_mesh(out, mesh.name, mesh.V_file, mesh.F_file, file_labels,
                         LabelSet.from_names(label_names), formats=["seg", "ply"])
 
@@ -58,40 +60,47 @@ def _cmd_segment(args) -> int:
     from scribbleseg_core.collection import find_collection
     from scribbleseg_core.mesh_io import load_mesh
     from scribbleseg_core.model_io import save_model
-    from scribbleseg_core.optimize import SegmentParams, predict_shape, segment_collection
-    from scribbleseg_core.shape import prepare_shape
+    from scribbleseg_core.optimize import SegmentParams
+    from scribbleseg_core.pipeline import FeaturesDone, Predicted, StepDone, collection_run
 
     t0 = time.perf_counter()
     coll = find_collection(args.folder)
     if not coll.scribbles:
         raise ScribblesegError(f"no scribble files in {args.folder} or its scribbles/ folder")
     out = Path(args.out)
-    shapes = []
-    for path in _progress(coll.meshes, args.quiet, "features"):
+    meshes = []
+    for path in coll.meshes:
         mesh = load_mesh(path)
         scr = coll.scribbles.get(path)
         if scr is not None and scr.num_faces != mesh.num_file_faces:
             raise ScribblesegError(f"scribbles for {path.name} have num_faces {scr.num_faces}, "
                                    f"the mesh has {mesh.num_file_faces}")
-        shapes.append(prepare_shape(mesh, coll.face_labels(path), num_patches=args.patches))
+        meshes.append(mesh)
+    scribbles = [coll.face_labels(path) for path in coll.meshes]
     params = SegmentParams(refine=not args.no_refine)
-    last = None
-    for snap in segment_collection(shapes, coll.label_names, params):
-        last = snap
-        if not args.quiet:
-            e = snap.energy
-            print(f"  iteration {snap.iteration} {snap.phase:<8} E = {e.total:.1f} "
-                  f"(scribble {e.scribble:.1f}, network {e.network:.1f}, feature {e.feature:.2f}) "
-                  f"{snap.seconds:.1f} s", file=sys.stderr)
-    trained = [s for s in shapes if s.is_scribbled]
-    for s, labels in zip(trained, last.labels):
-        _write_outputs(out, s.mesh, labels, coll.label_names)
-    for s in _progress([s for s in shapes if not s.is_scribbled], args.quiet, "predict"):
-        labels, _ = predict_shape(last.model, s)
-        _write_outputs(out, s.mesh, labels, coll.label_names)
-    save_model(out / "model", last.model)
+    bar = None if args.quiet else _bar(len(meshes), "features")
+    last, predicted = None, 0
+    for msg in collection_run(meshes, scribbles, coll.label_names, params, num_patches=args.patches):
+        if isinstance(msg, FeaturesDone):
+            if bar is not None:
+                bar.update(1)
+                if msg.done == msg.total:
+                    bar.close()
+        elif isinstance(msg, StepDone):
+            last = msg
+            if not args.quiet:
+                snap, e = msg.snapshot, msg.snapshot.energy
+                print(f"  iteration {snap.iteration} {snap.phase:<8} E = {e.total:.1f} "
+                      f"(scribble {e.scribble:.1f}, network {e.network:.1f}, feature {e.feature:.2f}) "
+                      f"{snap.seconds:.1f} s", file=sys.stderr)
+        elif isinstance(msg, Predicted):
+            _write_file_labels(out, meshes[msg.index], msg.file_labels, coll.label_names)
+            predicted += 1
+    for i, labels in zip(last.indices, last.file_labels):
+        _write_file_labels(out, meshes[i], labels, coll.label_names)
+    save_model(out / "model", last.snapshot.model)
     if not args.quiet:
-        print(f"segmented {len(trained)} scribbled and predicted {len(shapes) - len(trained)} shapes "
+        print(f"segmented {len(last.indices)} scribbled and predicted {predicted} shapes "
               f"in {time.perf_counter() - t0:.1f} s; wrote {out}", file=sys.stderr)
     return 0
 
@@ -108,7 +117,7 @@ def _cmd_predict(args) -> int:
         mesh = load_mesh(path)
         labels, _ = predict_shape(model, prepare_shape(mesh, num_patches=args.patches),
                                   refine=False if args.no_refine else None)
-        _write_outputs(out, mesh, labels, model.label_names)
+        _write_file_labels(out, mesh, mesh.labels_to_file(labels), model.label_names)
     return 0
 
 
