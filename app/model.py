@@ -24,7 +24,7 @@ class ShapeEntry:
     """One shape of the collection; the mesh loads on first use."""
 
     path: Path
-    file_scribble: np.ndarray | None = None  # (m0,) label per file face, -1 unscribbled
+    file_scribble: np.ndarray | None = None  # (m0,) scribbles as opened; edits live in the model's layer
     labels: np.ndarray | None = None  # (m0,) result per file face
     state: ShapeState = "untouched"
     error: str | None = None
@@ -218,8 +218,7 @@ class CollectionModel:
 
     def _after_edit(self, index: int) -> None:
         entry = self.shapes[index]
-        entry.file_scribble = self.layer(index).labels.copy()
-        has = bool((entry.file_scribble >= 0).any())
+        has = bool((self.layer(index).labels >= 0).any())
         if entry.state in ("untouched", "scribbled"):
             state = "scribbled" if has else "untouched"
             if state != entry.state:
@@ -247,8 +246,7 @@ class CollectionModel:
         m0 = entry.mesh().num_file_faces
         labels = entry.labels if entry.labels is not None else np.full(m0, -1)
         colors = self.label_set.face_colors(labels)
-        scribble = self._layers[index].labels if index in self._layers else entry.file_scribble
-        if scribble is not None:
-            s = scribble >= 0
-            colors[s] = self.label_set.face_colors(scribble[s]) * 0.6
+        scribble = self.layer(index).labels
+        s = scribble >= 0
+        colors[s] = self.label_set.face_colors(scribble[s]) * 0.6
         return colors
