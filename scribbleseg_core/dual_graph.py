@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -44,6 +45,12 @@ class DualGraph:
         ang_mean = self.concavity.mean()
         ang = self.concavity / ang_mean if ang_mean > 0 else np.zeros_like(geo)
         return delta * geo + (1 - delta) * ang + 1e-12
+
+    @cached_property
+    def crease_matrix(self) -> sp.csr_matrix:
+        """``matrix(crease_distance())``, built once per graph (patches and the geodesic
+        scribble cue both walk it)."""
+        return self.matrix(self.crease_distance())
 
     def matrix(self, values: np.ndarray) -> sp.csr_matrix:
         """Symmetric sparse (m, m) matrix with `values` (q,) on the arcs."""

@@ -36,7 +36,7 @@ def over_segment(
         Patch id per face, ``0 .. p-1``; every patch is connected.
     """
     m = graph.num_faces
-    W = graph.matrix(graph.crease_distance())
+    W = graph.crease_matrix
     seeds = _farthest_point_seeds(W, min(num_patches, m))
     _, _, source = dijkstra(W, directed=False, indices=seeds, min_only=True, return_predecessors=True)
     patch = _seed_index(seeds, source)
@@ -137,6 +137,6 @@ def nearest_scribble_labels(graph: DualGraph, scribble: np.ndarray) -> np.ndarra
     sources = np.flatnonzero(scribble >= 0)
     if sources.size == 0:
         return np.full(graph.num_faces, -1, np.int64)
-    W = graph.matrix(graph.crease_distance())
+    W = graph.crease_matrix
     _, _, src = dijkstra(W, directed=False, indices=sources, min_only=True, return_predecessors=True)
     return np.where(src >= 0, np.asarray(scribble)[np.maximum(src, 0)], -1).astype(np.int64)
