@@ -125,8 +125,7 @@ class MainWindow(QMainWindow):
             action.setShortcutContext(app_wide)
             edit.addAction(action)
         keys = [(str(k), lambda k=k: self._choose_label(k - 1)) for k in range(1, 10)]
-        keys += [("[", lambda: self.brush_slider.setValue(self.brush_slider.value() - 5)),
-                 ("]", lambda: self.brush_slider.setValue(self.brush_slider.value() + 5))]
+        keys += [("[", lambda: self._grow_brush(-5)), ("]", lambda: self._grow_brush(5))]
         for key, slot in keys:
             QShortcut(QKeySequence(key), self, activated=slot, context=app_wide)
 
@@ -163,6 +162,7 @@ class MainWindow(QMainWindow):
         self._viewport = viewport
         viewport.paint_mode = False
         viewport.set_paint_handlers(self.model.begin_stroke, self.model.paint_at, self.model.end_stroke)
+        viewport.set_key_handler(self._on_viewport_key)
 
     # ---------------------------------------------------------------- handlers
 
@@ -171,6 +171,20 @@ class MainWindow(QMainWindow):
 
     def model_redo(self) -> None:
         self.model.redo()
+
+    def _grow_brush(self, step: int) -> None:
+        self.brush_slider.setValue(self.brush_slider.value() + step)
+
+    def _on_viewport_key(self, command: str) -> None:
+        """The same keys as the window's shortcuts, pressed in polyscope's window."""
+        if command == "undo":
+            self.model_undo()
+        elif command == "redo":
+            self.model_redo()
+        elif command.startswith("label "):
+            self._choose_label(int(command.split()[1]))
+        elif command in ("brush -", "brush +"):
+            self._grow_brush(-5 if command == "brush -" else 5)
 
     def _choose_label(self, label: int) -> None:
         if 0 <= label < self.label_list.count():

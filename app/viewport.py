@@ -21,6 +21,7 @@ class _MouseInput:
     down: tuple
     shift: bool
     captured: bool
+    keys: tuple = ()  # commands from keys pressed in the viewport window
 
 
 class PolyscopeViewport:
@@ -51,7 +52,14 @@ class PolyscopeViewport:
         self._handlers = None
         self._orbit = None  # (center (3,), distance, yaw, pitch) of the paint-mode camera
         self._input = None
+        self._key_handler = None
         ps.set_user_callback(self._on_frame)
+
+    def set_key_handler(self, handler) -> None:
+        """``handler(command)`` for keys pressed while polyscope's window has focus (Qt
+        never sees those): ``"undo"``, ``"redo"``, ``"label 0"`` .. ``"label 8"``,
+        ``"brush -"``, ``"brush +"``."""
+        self._key_handler = handler
 
     @property
     def paint_mode(self) -> bool:
@@ -83,9 +91,16 @@ class PolyscopeViewport:
             pos=tuple(io.MousePos), delta=tuple(io.MouseDelta), wheel=float(io.MouseWheel),
             clicked=psim.IsMouseClicked(0), down=(psim.IsMouseDown(0), psim.IsMouseDown(1), psim.IsMouseDown(2)),
             shift=bool(io.KeyShift), captured=bool(io.WantCaptureMouse),
+            keys=() if io.WantCaptureKeyboard else _key_commands(psim, io),
         )
 
     def _handle(self, inp: _MouseInput) -> None:
+        if self._key_handler is not None:
+            for command in inp.keys:
+                self._key_handler(command)
+        self._handle_mouse(inp)
+
+    def _handle_mouse(self, inp: _MouseInput) -> None:
         """Paint mode: a left drag that starts on the shape paints; a left drag that starts
         elsewhere, Shift+left or right drag orbits, middle drag pans, the wheel zooms."""
         if self._handlers is None or not (self._paint_mode or self._painting):
@@ -177,3 +192,18 @@ class PolyscopeViewport:
 
     def screenshot(self, path: str) -> None:
         self._ps.screenshot(path, transparent_bg=False)
+
+
+def _key_commands(psim, io) -> tuple:
+    """Commands for the keys pressed this frame (see ``set_key_handler``)."""
+    out = []
+    if psim.IsKeyPressed(psim.ImGuiKey_Z, False) and io.KeyCtrl:
+        out.append("redo" if io.KeyShift else "undo")
+    for k in range(1, 10):
+        if psim.IsKeyPressed(getattr(psim, f"ImGuiKey_{k}"), False) and not io.KeyCtrl:
+            out.append(f"label {k - 1}")
+    if psim.IsKeyPressed(psim.ImGuiKey_LeftBracket):
+        out.append("brush -")
+    if psim.IsKeyPressed(psim.ImGuiKey_RightBracket):
+        out.append("brush +")
+    return tuple(out)

@@ -111,6 +111,28 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     assert (layer.labels == -1).all() and w.model.shapes[1].state == "untouched"
     qtbot.keyClick(w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier | Qt.KeyboardModifier.ShiftModifier)
     np.testing.assert_array_equal(np.flatnonzero(layer.labels == 1), painted)
+    # the same keys pressed in polyscope's window (Qt never sees them): undo, label, redo
+    import polyscope.imgui as psim
+
+    io = psim.GetIO()
+
+    def key(k, ctrl=False, shift=False):
+        for mod, on in ((psim.ImGuiMod_Ctrl, ctrl), (psim.ImGuiMod_Shift, shift)):
+            if on:
+                io.AddKeyEvent(mod, True)
+        io.AddKeyEvent(k, True)
+        viewport.tick()
+        io.AddKeyEvent(k, False)
+        for mod in (psim.ImGuiMod_Ctrl, psim.ImGuiMod_Shift):
+            io.AddKeyEvent(mod, False)
+        viewport.tick()
+
+    key(psim.ImGuiKey_Z, ctrl=True)
+    assert (layer.labels == -1).all()
+    key(psim.ImGuiKey_Z, ctrl=True, shift=True)
+    np.testing.assert_array_equal(np.flatnonzero(layer.labels == 1), painted)
+    key(psim.ImGuiKey_3)
+    assert w.model.current_label == 2
     # a drag that starts off the shape moves the camera and paints nothing
     w.eraser_box.setChecked(False)
     before = layer.labels.copy()
