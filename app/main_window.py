@@ -5,7 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from PySide6.QtCore import Qt, QTimer
+import time
+
+from PySide6.QtCore import QObject, Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QColor, QIcon, QKeySequence, QPixmap, QShortcut
 from PySide6.QtWidgets import (
     QCheckBox,
@@ -32,6 +34,12 @@ from scribbleseg_core import __version__
 #: Default collection when none is given: the bundled demo creatures.
 DEFAULT_COLLECTION = Path(__file__).resolve().parents[1] / "assets" / "Quadruped"
 FRAME_MS = 16
+
+
+class _Bridge(QObject):
+    """Carries results from worker threads onto the main thread (queued signal)."""
+
+    preview_done = Signal(object)
 
 
 def _swatch(rgb) -> QIcon:
@@ -81,6 +89,8 @@ class MainWindow(QMainWindow):
         self.color_button = QPushButton("Color…")
         self.paint_box = QCheckBox("Paint: left-drag on the shape (drag elsewhere or Shift+drag to orbit)")
         self.eraser_box = QCheckBox("Eraser")
+        self.preview_box = QCheckBox("Live preview after each stroke")
+        self.preview_box.setChecked(True)
         self.brush_slider = QSlider(Qt.Orientation.Horizontal)
         self.brush_slider.setRange(1, 100)
         self.brush_slider.setValue(20)
@@ -100,6 +110,7 @@ class MainWindow(QMainWindow):
         row.addWidget(QLabel("Brush ([ ])"))
         row.addWidget(self.brush_slider)
         layout.addLayout(row)
+        layout.addWidget(self.preview_box)
         self.run_button = QPushButton("Segment collection")
         self.stop_button = QPushButton("Stop")
         self.stop_button.setEnabled(False)
@@ -116,6 +127,11 @@ class MainWindow(QMainWindow):
         layout.addWidget(self.energy_plot)
         self.setCentralWidget(panel)
         self.worker = None
+        self._bridge = _Bridge(self)
+        self._preview_worker = None
+        self._preview_generation = 0
+        self._done_generation = 0
+        self.last_preview_seconds: float | None = None
         # Application-wide: one main window, and text fields still take their own keys.
         app_wide = Qt.ShortcutContext.ApplicationShortcut
         self.undo_action = QAction("Undo", self, shortcut=QKeySequence.StandardKey.Undo, triggered=self.model_undo)
@@ -147,6 +163,9 @@ class MainWindow(QMainWindow):
         m.labels_changed.connect(self._on_labels_changed)
         m.scribbles_changed.connect(self._on_scribbles_changed)
         m.state_changed.connect(self._on_state_changed)
+        m.edit_committed.connect(self.request_preview)
+        self._bridge.preview_done.connect(self._on_preview_done)
+        self.preview_box.toggled.connect(lambda on: on and self.model.current >= 0 and self.request_preview(self.model.current))
         m.error.connect(self._on_error)
 
     @property
@@ -261,6 +280,44 @@ class MainWindow(QMainWindow):
         entry = self.model.shapes[index]
         self.shape_list.item(index).setText(f"{entry.name}   [{entry.state}]")
 
+    # ---------------------------------------------------------------- preview
+
+    def request_preview(self, index: int) -> None:
+        """Re-propagate shape `index`'s labels in the background; older requests go stale."""
+        if not self.preview_box.isChecked() or self.model.shapes[index].state == "error":
+            return
+        from app.preview import PreviewRequest, PreviewWorker
+
+        if self._preview_worker is None:
+            self._preview_worker = PreviewWorker(self._bridge.preview_done.emit)
+        m = self.model
+        model = m.trained_model
+        if model is not None and len(model.label_names) != len(m.label_set):
+            model = None  # labels were added or deleted since the run
+        self._preview_generation += 1
+        self._preview_worker.request(
+            PreviewRequest(self._preview_generation, index, m.shapes[index].mesh(), m.layer(index).labels.copy(),
+                           max(len(m.label_set), 1), model, time.perf_counter())
+        )
+
+    def _on_preview_done(self, result) -> None:
+        self._done_generation = max(self._done_generation, result.generation)
+        if result.generation != self._preview_generation:
+            return  # a newer stroke made this one stale
+        if result.error:
+            self.statusBar().showMessage(result.error)
+            return
+        entry = self.model.shapes[result.index]
+        entry.preview = result.file_labels
+        if result.index == self.model.current:
+            self.viewport.set_colors(self.model.face_colors(result.index))
+        self.last_preview_seconds = result.seconds
+        self.statusBar().showMessage(f"{entry.name}: preview in {result.seconds * 1000:.0f} ms")
+
+    def preview_idle(self) -> bool:
+        """True when the latest requested preview has arrived (tests wait on this)."""
+        return self._done_generation == self._preview_generation
+
     # ---------------------------------------------------------------- run
 
     def run_collection(self) -> None:
@@ -316,6 +373,7 @@ class MainWindow(QMainWindow):
     def _set_result(self, index: int, labels, state: str) -> None:
         entry = self.model.shapes[index]
         entry.labels = labels
+        entry.preview = None  # the run's labels are newer
         entry.state = state
         self._on_state_changed(index)
         if index == self.model.current:
@@ -343,7 +401,8 @@ class MainWindow(QMainWindow):
         for i, entry in enumerate(self.model.shapes):
             if entry.state == "error":
                 continue
-            labels = entry.labels if entry.labels is not None else self.model.layer(i).labels
+            labels = self.model.shown_labels(i)
+            labels = labels if labels is not None else self.model.layer(i).labels
             if not (labels >= 0).any():  # neither a result nor scribbles
                 continue
             mesh = entry.mesh()
@@ -359,6 +418,13 @@ class MainWindow(QMainWindow):
         box = QMessageBox(QMessageBox.Icon.Warning, "scribbleseg", message, parent=self)
         box.setModal(False)
         box.show()
+
+    def closeEvent(self, event) -> None:
+        if self._preview_worker is not None:
+            self._preview_worker.close()
+        if self.worker is not None:
+            self.worker.quit()
+        super().closeEvent(event)
 
     def _on_frame(self) -> None:
         if self._viewport is not None:

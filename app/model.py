@@ -26,6 +26,7 @@ class ShapeEntry:
     path: Path
     file_scribble: np.ndarray | None = None  # (m0,) scribbles as opened; edits live in the model's layer
     labels: np.ndarray | None = None  # (m0,) result per file face
+    preview: np.ndarray | None = None  # (m0,) live preview after the latest edit, if newer than `labels`
     state: ShapeState = "untouched"
     error: str | None = None
     _mesh: Mesh | None = None
@@ -59,6 +60,8 @@ class CollectionModel:
         Label names or colors changed.
     state_changed(index)
         Shape `index` changed state (untouched, scribbled, ...).
+    edit_committed(index)
+        A stroke ended, or an undo/redo happened, on shape `index` (time for a preview).
     """
 
     def __init__(self, autosave_dir: str | os.PathLike | None = None) -> None:
@@ -80,6 +83,7 @@ class CollectionModel:
         self.current_label_changed = Event()
         self.labels_changed = Event()
         self.state_changed = Event()
+        self.edit_committed = Event()
 
     def open(self, path: str | os.PathLike) -> None:
         """Open a folder of meshes (with scribble files beside them or in ``scribbles/``) or one mesh."""
@@ -225,6 +229,13 @@ class CollectionModel:
                 entry.state = state
                 self.state_changed.emit(index)
         self.autosave(index)
+        self.edit_committed.emit(index)
+
+    def shown_labels(self, index: int) -> np.ndarray | None:
+        """The labels the user sees for shape `index` (the preview if newer than the last
+        result), (m0,) int64, or None."""
+        entry = self.shapes[index]
+        return entry.preview if entry.preview is not None else entry.labels
 
     def autosave(self, index: int) -> Path | None:
         """Write shape `index`'s scribbles (format v1) into the autosave folder, atomically."""
@@ -244,7 +255,8 @@ class CollectionModel:
         drawn darker; (m0, 3) float64 RGB."""
         entry = self.shapes[index]
         m0 = entry.mesh().num_file_faces
-        labels = entry.labels if entry.labels is not None else np.full(m0, -1)
+        labels = self.shown_labels(index)
+        labels = labels if labels is not None else np.full(m0, -1)
         colors = self.label_set.face_colors(labels)
         scribble = self.layer(index).labels
         s = scribble >= 0

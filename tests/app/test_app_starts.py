@@ -92,6 +92,11 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     painted = np.flatnonzero(layer.labels == 1)
     assert len(painted) > 20
     assert w.model.shapes[1].state == "scribbled" and "[scribbled]" in w.shape_list.item(1).text()
+    # the live preview labels the whole shape in the background, scribbles kept
+    qtbot.waitUntil(w.preview_idle, timeout=10_000)
+    preview = w.model.shapes[1].preview
+    assert preview is not None and (preview == 1).all()  # one label painted: all head
+    assert 0 < w.last_preview_seconds < 5 and "preview in" in w.statusBar().currentMessage()
     saved = json.loads((tmp_path / "autosave" / "quadruped_02.json").read_text())
     assert saved["strokes"][0]["label"] == 1 and len(saved["strokes"][0]["faces"]) == len(painted)
     # the painted faces form one connected band: no gaps between the two samples

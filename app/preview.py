@@ -1,0 +1,142 @@
+"""Live preview: after each stroke, re-propagate the shape's labels in the background.
+
+:class:`PreviewWorker` runs one thread that always computes the *latest* request only:
+a request made while another is pending replaces it (older strokes are stale), and a
+result that arrives after a newer request was made is dropped by the caller, who compares
+generations. No Qt here; the window hops results onto the main thread.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from scribbleseg_core.dual_graph import DualGraph, dual_graph
+from scribbleseg_core.mesh_io import Mesh
+from scribbleseg_core.propagate import propagate_scribbles
+
+
+@dataclass(frozen=True)
+class PreviewRequest:
+    """What one preview needs; arrays are copies the caller no longer touches.
+
+    Attributes
+    ----------
+    generation : int
+    index : int
+        Shape index in the collection.
+    mesh : Mesh
+    file_scribble : (m0,) int64 ndarray
+        Scribble label per file face, -1 unscribbled.
+    num_labels : int
+    model : TrainedModel or None
+        When given, its network's log-probabilities join the scribbles.
+    requested_at : float
+        ``time.perf_counter()`` when the user released the mouse.
+    """
+
+    generation: int
+    index: int
+    mesh: Mesh
+    file_scribble: np.ndarray
+    num_labels: int
+    model: object = None
+    requested_at: float = 0.0
+
+
+@dataclass(frozen=True)
+class PreviewResult:
+    generation: int
+    index: int
+    file_labels: np.ndarray | None  # (m0,) int64; None when nothing is scribbled
+    seconds: float  # from the request to the result
+    error: str | None = None
+
+
+class PreviewEngine:
+    """Computes previews; keeps each mesh's dual graph and network input (costly once)."""
+
+    def __init__(self) -> None:
+        self._graphs: dict[int, tuple[Mesh, DualGraph]] = {}
+        self._inputs: dict[tuple[int, tuple], np.ndarray] = {}
+
+    def graph(self, mesh: Mesh) -> DualGraph:
+        key = id(mesh)
+        if key not in self._graphs or self._graphs[key][0] is not mesh:
+            self._graphs[key] = (mesh, dual_graph(mesh.normalized(), mesh.F))
+        return self._graphs[key][1]
+
+    def log_proba(self, mesh: Mesh, model) -> np.ndarray:
+        """The model's face log-probabilities; features come from the cache (computed
+        there on first use)."""
+        from scribbleseg_core.cache import cached_face_features
+        from scribbleseg_core.context import diffuse_face_values
+        from scribbleseg_core.geometry import face_areas
+
+        scales = tuple(model.params.context_scales)
+        key = (id(mesh), scales)
+        if key not in self._inputs:
+            X = cached_face_features(mesh.V, mesh.F)
+            ctx = diffuse_face_values(self.graph(mesh), face_areas(mesh.normalized(), mesh.F), X, scales)
+            self._inputs[key] = np.hstack([X, ctx])
+        return model.classifier.log_proba(self._inputs[key])
+
+    def compute(self, req: PreviewRequest) -> np.ndarray | None:
+        """(m0,) file-face labels, or None when the shape has no scribbles."""
+        mesh = req.mesh
+        scribble = np.asarray(req.file_scribble, dtype=np.int64)[mesh.proc_to_file]
+        if not (scribble >= 0).any():
+            return None
+        logp = self.log_proba(mesh, req.model) if req.model is not None else None
+        labels = propagate_scribbles(self.graph(mesh), scribble, req.num_labels, log_proba=logp)
+        return mesh.labels_to_file(labels)
+
+
+class PreviewWorker:
+    """One background thread computing the latest :class:`PreviewRequest`.
+
+    Parameters
+    ----------
+    deliver : callable(PreviewResult)
+        Called on the worker thread with each result (also failures, with ``error``).
+    engine : PreviewEngine, optional
+    """
+
+    def __init__(self, deliver: Callable[[PreviewResult], None], engine: PreviewEngine | None = None) -> None:
+        self.engine = engine or PreviewEngine()
+        self._deliver = deliver
+        self._pending: PreviewRequest | None = None
+        self._closed = False
+        self._cond = threading.Condition()
+        self._thread = threading.Thread(target=self._loop, name="scribbleseg-preview", daemon=True)
+        self._thread.start()
+
+    def request(self, req: PreviewRequest) -> None:
+        """Queue `req`, replacing any request not yet started."""
+        with self._cond:
+            self._pending = req
+            self._cond.notify()
+
+    def close(self, timeout: float = 5.0) -> None:
+        with self._cond:
+            self._closed = True
+            self._cond.notify()
+        self._thread.join(timeout)
+
+    def _loop(self) -> None:
+        while True:
+            with self._cond:
+                while self._pending is None and not self._closed:
+                    self._cond.wait()
+                if self._closed:
+                    return
+                req, self._pending = self._pending, None
+            try:
+                labels, error = self.engine.compute(req), None
+            except Exception as e:  # a preview must never take the app down
+                labels, error = None, f"{req.mesh.name}: preview failed: {e}"
+            self._deliver(PreviewResult(req.generation, req.index, labels, time.perf_counter() - req.requested_at, error))

@@ -1,0 +1,74 @@
+"""The live-preview worker: latest request wins, failures are reported, labels are right."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+
+from app.preview import PreviewEngine, PreviewRequest, PreviewWorker
+from tests.core.planted import LABELS, creature, stroke_faces
+
+
+def _request(gen, mesh, scribble, index=0):
+    return PreviewRequest(gen, index, mesh, scribble, len(LABELS), None, time.perf_counter())
+
+
+def test_preview_labels_the_planted_parts_and_keeps_scribbles():
+    mesh, gt = creature(1.6, 0.9, seed=1)
+    scribble = np.full(mesh.num_file_faces, -1)
+    for lab in range(len(LABELS)):
+        scribble[stroke_faces(mesh, gt, lab)] = lab
+    labels = PreviewEngine().compute(_request(1, mesh, scribble))
+    assert labels.shape == (mesh.num_file_faces,)
+    assert (labels == gt).mean() >= 0.95
+    np.testing.assert_array_equal(labels[scribble >= 0], scribble[scribble >= 0])
+    assert PreviewEngine().compute(_request(1, mesh, np.full_like(scribble, -1))) is None
+
+
+def test_latest_request_wins_and_results_arrive_in_order():
+    mesh, gt = creature(1.6, 0.9, seed=1)
+    got, done = [], threading.Event()
+
+    def deliver(result):
+        got.append(result)
+        if result.generation == 20:
+            done.set()
+
+    gate = threading.Event()
+
+    class SlowFirst(PreviewEngine):  # the first preview is still running during the burst
+        def compute(self, req):
+            if req.generation == 1:
+                gate.wait(10)
+            return super().compute(req)
+
+    worker = PreviewWorker(deliver, SlowFirst())
+    try:
+        for gen in range(1, 21):  # a burst of strokes: requests 2..19 go stale before they start
+            scribble = np.full(mesh.num_file_faces, -1)
+            scribble[stroke_faces(mesh, gt, gen % len(LABELS))] = gen % len(LABELS)
+            worker.request(_request(gen, mesh, scribble))
+            if gen == 1:
+                time.sleep(0.2)  # let the worker take request 1
+        gate.set()
+        assert done.wait(30)
+    finally:
+        worker.close()
+    assert [r.generation for r in got] == [1, 20]
+    assert all(r.error is None and r.seconds > 0 for r in got)
+
+
+def test_a_failing_preview_is_reported_not_raised():
+    mesh, _ = creature(1.6, 0.9, seed=1)
+    got, done = [], threading.Event()
+    worker = PreviewWorker(lambda r: (got.append(r), done.set()))
+    try:
+        bad = np.full(mesh.num_file_faces, -1)
+        bad[0] = 99  # a label beyond the label count
+        worker.request(_request(1, mesh, bad))
+        assert done.wait(10)
+    finally:
+        worker.close()
+    assert got[0].file_labels is None and "preview failed" in got[0].error and mesh.name in got[0].error
