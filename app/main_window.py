@@ -11,6 +11,7 @@ from PySide6.QtCore import QObject, Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QColor, QIcon, QKeySequence, QPixmap, QShortcut
 from PySide6.QtWidgets import (
     QCheckBox,
+    QComboBox,
     QFileDialog,
     QColorDialog,
     QHBoxLayout,
@@ -34,12 +35,30 @@ from scribbleseg_core import __version__
 #: Default collection when none is given: the bundled demo creatures.
 DEFAULT_COLLECTION = Path(__file__).resolve().parents[1] / "assets" / "Quadruped"
 FRAME_MS = 16
+#: What the surface shows ("Show" menu); features are the columns of ``face_features``.
+SHOW_MODES = ("Labels and scribbles", "Scribbles only", "Result only",
+              "Feature: AGD", "Feature: SDF", "Feature: Gaussian curvature", "Feature: SI-HKS (band 1)")
+FEATURE_COLUMN = {"Feature: AGD": 0, "Feature: SDF": 1, "Feature: Gaussian curvature": 2, "Feature: SI-HKS (band 1)": 3}
 
 
 class _Bridge(QObject):
     """Carries results from worker threads onto the main thread (queued signal)."""
 
     preview_done = Signal(object)
+
+
+def value_colors(values: np.ndarray) -> np.ndarray:
+    """A blue-to-yellow ramp (viridis anchors) of `values` (m,) between their 2nd and
+    98th percentiles, (m, 3) float64 RGB."""
+    anchors = np.array([[0.267, 0.005, 0.329], [0.229, 0.322, 0.546], [0.128, 0.567, 0.551],
+                        [0.369, 0.789, 0.383], [0.993, 0.906, 0.144]])
+    v = np.asarray(values, dtype=np.float64)
+    finite = np.isfinite(v)
+    lo, hi = np.percentile(v[finite], [2, 98]) if finite.any() else (0.0, 1.0)
+    t = np.clip((np.where(finite, v, lo) - lo) / max(hi - lo, 1e-300), 0, 1) * (len(anchors) - 1)
+    i = np.minimum(t.astype(int), len(anchors) - 2)
+    f = (t - i)[:, None]
+    return anchors[i] * (1 - f) + anchors[i + 1] * f
 
 
 def _swatch(rgb) -> QIcon:
@@ -87,6 +106,7 @@ class MainWindow(QMainWindow):
         self.label_list = QListWidget()
         self.add_label_button = QPushButton("Add label")
         self.color_button = QPushButton("Color…")
+        self.delete_label_button = QPushButton("Delete")
         self.paint_box = QCheckBox("Paint: left-drag on the shape (drag elsewhere or Shift+drag to orbit)")
         self.eraser_box = QCheckBox("Eraser")
         self.preview_box = QCheckBox("Live preview after each stroke")
@@ -103,6 +123,7 @@ class MainWindow(QMainWindow):
         row = QHBoxLayout()
         row.addWidget(self.add_label_button)
         row.addWidget(self.color_button)
+        row.addWidget(self.delete_label_button)
         layout.addLayout(row)
         layout.addWidget(self.paint_box)
         row = QHBoxLayout()
@@ -111,13 +132,24 @@ class MainWindow(QMainWindow):
         row.addWidget(self.brush_slider)
         layout.addLayout(row)
         layout.addWidget(self.preview_box)
+        self.show_combo = QComboBox()
+        self.show_combo.addItems(SHOW_MODES)
+        row = QHBoxLayout()
+        row.addWidget(QLabel("Show"))
+        row.addWidget(self.show_combo, 1)
+        layout.addLayout(row)
         self.run_button = QPushButton("Segment collection")
         self.stop_button = QPushButton("Stop")
         self.stop_button.setEnabled(False)
+        self.predict_button = QPushButton("Predict unlabeled")
+        self.predict_button.setToolTip("Segment the shapes that have neither scribbles nor a result with the trained network")
         self.export_button = QPushButton("Export all…")
         row = QHBoxLayout()
         row.addWidget(self.run_button)
         row.addWidget(self.stop_button)
+        layout.addLayout(row)
+        row = QHBoxLayout()
+        row.addWidget(self.predict_button)
         row.addWidget(self.export_button)
         layout.addLayout(row)
         self.progress = QProgressBar()
@@ -132,10 +164,27 @@ class MainWindow(QMainWindow):
         self._preview_generation = 0
         self._done_generation = 0
         self.last_preview_seconds: float | None = None
+        self._features: dict[tuple[int, int], np.ndarray] = {}
+        self._features_pending: set[int] = set()
+        self._collection_generation = 0
         # Application-wide: one main window, and text fields still take their own keys.
         app_wide = Qt.ShortcutContext.ApplicationShortcut
         self.undo_action = QAction("Undo", self, shortcut=QKeySequence.StandardKey.Undo, triggered=self.model_undo)
         self.redo_action = QAction("Redo", self, shortcut=QKeySequence("Ctrl+Shift+Z"), triggered=self.model_redo)
+        file_menu = self.menuBar().addMenu("&File")
+        for text, key, slot in (
+            ("Open collection…", QKeySequence.StandardKey.Open, self._on_open_collection),
+            ("Open session…", None, self._on_open_session),
+            ("Add meshes…", None, self._on_add_meshes),
+            ("Save session", QKeySequence.StandardKey.Save, self.save_session),
+            ("Save session as…", QKeySequence.StandardKey.SaveAs, self._on_save_session_as),
+            ("Export current shape…", None, self._on_export_current),
+            ("Export all…", None, self._on_export),
+        ):
+            action = QAction(text, self, triggered=slot)
+            if key is not None:
+                action.setShortcut(key)
+            file_menu.addAction(action)
         edit = self.menuBar().addMenu("&Edit")
         for action in (self.undo_action, self.redo_action):
             action.setShortcutContext(app_wide)
@@ -152,6 +201,9 @@ class MainWindow(QMainWindow):
         self.label_list.itemDoubleClicked.connect(self._on_rename)
         self.add_label_button.clicked.connect(self._on_add_label)
         self.color_button.clicked.connect(self._on_recolor)
+        self.delete_label_button.clicked.connect(self._on_delete_label)
+        self.show_combo.currentIndexChanged.connect(lambda _: self._refresh_colors())
+        self.predict_button.clicked.connect(self.predict_unlabeled)
         self.paint_box.toggled.connect(self._on_paint_toggled)
         self.eraser_box.toggled.connect(lambda on: m.set_current_label(-1 if on else max(self.label_list.currentRow(), 0)))
         self.brush_slider.valueChanged.connect(lambda v: setattr(m, "brush_radius", v / 1000.0))
@@ -164,6 +216,8 @@ class MainWindow(QMainWindow):
         m.scribbles_changed.connect(self._on_scribbles_changed)
         m.state_changed.connect(self._on_state_changed)
         m.edit_committed.connect(self.request_preview)
+        m.shapes_added.connect(self._on_shapes_added)
+        m.restore_available.connect(lambda n: QTimer.singleShot(0, lambda: self._offer_restore(n)))
         self._bridge.preview_done.connect(self._on_preview_done)
         self.preview_box.toggled.connect(lambda on: on and self.model.current >= 0 and self.request_preview(self.model.current))
         m.error.connect(self._on_error)
@@ -182,6 +236,7 @@ class MainWindow(QMainWindow):
         viewport.paint_mode = False
         viewport.set_paint_handlers(self.model.begin_stroke, self.model.paint_at, self.model.end_stroke)
         viewport.set_key_handler(self._on_viewport_key)
+        viewport.set_hover_handler(self._on_hover)
 
     # ---------------------------------------------------------------- handlers
 
@@ -245,6 +300,11 @@ class MainWindow(QMainWindow):
         self.viewport.paint_mode = on
 
     def _on_collection_changed(self) -> None:
+        self._collection_generation += 1
+        self._features.clear()
+        self._features_pending.clear()
+        self._preview_generation += 1  # a pending preview belongs to the old collection
+        self._update_title()
         self.shape_list.clear()
         for entry in self.model.shapes:
             self.shape_list.addItem(QListWidgetItem(f"{entry.name}   [{entry.state}]"))
@@ -269,16 +329,89 @@ class MainWindow(QMainWindow):
         if entry.state == "error":
             return
         mesh = entry.mesh()
-        self.viewport.show(mesh.V_file, mesh.F_file, self.model.face_colors(index))
+        self.viewport.show(mesh.V_file, mesh.F_file, self.shown_colors(index))
         self.statusBar().showMessage(f"{entry.name}: {mesh.report.summary()}")
 
     def _on_scribbles_changed(self, index: int, faces: np.ndarray) -> None:
         if index == self.model.current:
-            self.viewport.set_colors(self.model.face_colors(index))
+            self._refresh_colors()
 
     def _on_state_changed(self, index: int) -> None:
         entry = self.model.shapes[index]
         self.shape_list.item(index).setText(f"{entry.name}   [{entry.state}]")
+
+    # ---------------------------------------------------------------- inspect
+
+    def shown_colors(self, index: int) -> np.ndarray:
+        """Face colors of shape `index` for the chosen "Show" mode, (m0, 3) float64."""
+        m = self.model
+        mode = self.show_combo.currentText()
+        if mode == "Scribbles only":
+            return m.label_set.face_colors(m.layer(index).labels)
+        if mode == "Result only":
+            labels = m.shown_labels(index)
+            return m.label_set.face_colors(labels if labels is not None else np.full(m.shapes[index].mesh().num_file_faces, -1))
+        if mode in FEATURE_COLUMN:
+            values = self._feature_values(index, FEATURE_COLUMN[mode])
+            if values is not None:
+                return value_colors(values)
+        return m.face_colors(index)
+
+    def _refresh_colors(self) -> None:
+        i = self.model.current
+        if i >= 0 and self.model.shapes[i].state != "error":
+            self.viewport.set_colors(self.shown_colors(i))
+
+    def _feature_values(self, index: int, column: int) -> np.ndarray | None:
+        """Per file face feature `column` of shape `index`, or None while it is computed in
+        the background (the view refreshes when it is ready)."""
+        key = (index, column)
+        if key in self._features:
+            return self._features[key]
+        if index in self._features_pending:
+            return None
+        from superqt.utils import thread_worker
+
+        from scribbleseg_core.cache import cached_face_features
+
+        mesh = self.model.shapes[index].mesh()
+        self._features_pending.add(index)
+        self.statusBar().showMessage(f"{mesh.name}: computing shape signatures…")
+
+        generation = self._collection_generation
+
+        def done(X, index=index, mesh=mesh):
+            if generation != self._collection_generation:
+                return  # another collection was opened meanwhile
+            self._features_pending.discard(index)
+            for c in set(FEATURE_COLUMN.values()):
+                self._features[(index, c)] = mesh.labels_to_file(X[:, c])
+            self.statusBar().showMessage(f"{mesh.name}: signatures ready")
+            if index == self.model.current:
+                self._refresh_colors()
+
+        worker = thread_worker(cached_face_features, start_thread=False)(mesh.V, mesh.F)
+        worker.returned.connect(done)
+        worker.errored.connect(lambda e, index=index: (self._features_pending.discard(index), self._on_error(f"{mesh.name}: signatures failed: {e}")))
+        worker.start()
+        return None
+
+    def _on_hover(self, face: int) -> None:
+        m = self.model
+        i = m.current
+        if face < 0 or i < 0:
+            return
+        names = m.label_set.names
+        scribble = int(m.layer(i).labels[face]) if face < len(m.layer(i).labels) else -1
+        labels = m.shown_labels(i)
+        label = int(labels[face]) if labels is not None and face < len(labels) else -1
+        text = f"{m.shapes[i].name}  face {face}: label {names[label] if 0 <= label < len(names) else '—'}"
+        if scribble >= 0:
+            text += f", scribbled {names[scribble] if scribble < len(names) else scribble}"
+        mode = self.show_combo.currentText()
+        if mode in FEATURE_COLUMN and (i, FEATURE_COLUMN[mode]) in self._features:
+            text += f", {mode[9:]} = {self._features[(i, FEATURE_COLUMN[mode])][face]:.4g}"
+        self.statusBar().showMessage(text)
 
     # ---------------------------------------------------------------- preview
 
@@ -310,7 +443,7 @@ class MainWindow(QMainWindow):
         entry = self.model.shapes[result.index]
         entry.preview = result.file_labels
         if result.index == self.model.current:
-            self.viewport.set_colors(self.model.face_colors(result.index))
+            self._refresh_colors()
         self.last_preview_seconds = result.seconds
         self.statusBar().showMessage(f"{entry.name}: preview in {result.seconds * 1000:.0f} ms")
 
@@ -342,10 +475,45 @@ class MainWindow(QMainWindow):
         self.worker.yielded.connect(self._on_run_message)
         self.worker.errored.connect(lambda e: self._on_error(f"segmentation failed: {e}"))
         self.worker.finished.connect(self._on_run_finished)
-        self.run_button.setEnabled(False)
-        self.stop_button.setEnabled(True)
+        self._set_running(True)
         self.statusBar().showMessage("computing shape signatures…")
         self.worker.start()
+
+    def predict_unlabeled(self) -> None:
+        """Segment the shapes with neither scribbles nor a result (e.g. meshes added after
+        the run) with the trained network, in a worker thread."""
+        from superqt.utils import thread_worker
+
+        from app.runner import limit_threads, predict_run
+
+        m = self.model
+        if m.trained_model is None:
+            self._on_error("no trained network yet: paint some shapes and run 'Segment collection' first")
+            return
+        if len(m.trained_model.label_names) != len(m.label_set):
+            self._on_error("the labels changed since the network was trained: run 'Segment collection' again")
+            return
+        targets = [i for i, e in enumerate(m.shapes) if e.state == "untouched" and not (m.layer(i).labels >= 0).any()]
+        if not targets:
+            self.statusBar().showMessage("every shape already has scribbles or a result")
+            return
+        limit_threads(1)
+        self._run_indices = targets
+        self.progress.setRange(0, len(targets))
+        self.progress.setValue(0)
+        meshes = [m.shapes[i].mesh() for i in targets]
+        self.worker = thread_worker(predict_run, start_thread=False)(m.trained_model, meshes)
+        self.worker.yielded.connect(self._on_run_message)
+        self.worker.errored.connect(lambda e: self._on_error(f"prediction failed: {e}"))
+        self.worker.finished.connect(self._on_run_finished)
+        self._set_running(True)
+        self.statusBar().showMessage(f"predicting {len(targets)} shapes…")
+        self.worker.start()
+
+    def _set_running(self, on: bool) -> None:
+        for b in (self.run_button, self.predict_button):
+            b.setEnabled(not on)
+        self.stop_button.setEnabled(on)
 
     def stop_run(self) -> None:
         if self.worker is not None:
@@ -371,35 +539,108 @@ class MainWindow(QMainWindow):
             self._set_result(self._run_indices[msg.index], msg.file_labels, "predicted")
 
     def _set_result(self, index: int, labels, state: str) -> None:
-        entry = self.model.shapes[index]
-        entry.labels = labels
-        entry.preview = None  # the run's labels are newer
-        entry.state = state
-        self._on_state_changed(index)
-        if index == self.model.current:
-            self.viewport.set_colors(self.model.face_colors(index))
+        self.model.set_result(index, labels, state)
 
     def _on_run_finished(self) -> None:
-        self.run_button.setEnabled(True)
-        self.stop_button.setEnabled(False)
+        self._set_running(False)
         self.worker = None
-        self.statusBar().showMessage("segmentation finished")
+        self.statusBar().showMessage("finished")
+
+    # ---------------------------------------------------------------- files
+
+    def _update_title(self) -> None:
+        m = self.model
+        where = m.session_path or m.folder
+        self.setWindowTitle(f"scribbleseg {__version__}" + (f" — {where.name}" if where else ""))
+
+    def _on_open_collection(self) -> None:
+        folder = QFileDialog.getExistingDirectory(self, "Open a folder of meshes")
+        if folder:
+            self.model.open(folder)
+
+    def _on_open_session(self) -> None:
+        folder = QFileDialog.getExistingDirectory(self, "Open a session folder")
+        if folder:
+            self.model.open_session(folder)
+
+    def _on_add_meshes(self) -> None:
+        paths, _ = QFileDialog.getOpenFileNames(self, "Add meshes", "", "Meshes (*.off *.obj *.ply *.stl *.glb *.gltf)")
+        if paths:
+            self.model.add_meshes(paths)
+
+    def _on_shapes_added(self, indices) -> None:
+        for i in indices:
+            entry = self.model.shapes[i]
+            self.shape_list.addItem(QListWidgetItem(f"{entry.name}   [{entry.state}]"))
+        self.statusBar().showMessage(f"added {len(indices)} shapes; 'Predict unlabeled' segments them")
+
+    def save_session(self) -> bool:
+        """Save to the open session's folder, or ask for one."""
+        if self.model.session_path is None:
+            return self._on_save_session_as()
+        return self._save_session(self.model.session_path)
+
+    def _on_save_session_as(self) -> bool:
+        folder = QFileDialog.getExistingDirectory(self, "Save the session into a folder")
+        return bool(folder) and self._save_session(Path(folder))
+
+    def _save_session(self, folder: Path) -> bool:
+        from scribbleseg_core.errors import ScribblesegError
+
+        try:
+            skipped = self.model.save_session(folder)
+        except (OSError, ScribblesegError) as e:
+            self._on_error(f"{folder}: saving the session failed: {e}")
+            return False
+        self._update_title()
+        note = f" (left out, their mesh did not load: {', '.join(skipped)})" if skipped else ""
+        self.statusBar().showMessage(f"session saved to {folder}{note}")
+        return True
+
+    def _confirm(self, title: str, text: str) -> bool:
+        """Ask yes or no (tests replace this)."""
+        answer = QMessageBox.question(self, title, text)
+        return answer == QMessageBox.StandardButton.Yes
+
+    def _offer_restore(self, count: int) -> None:
+        folder = self.model.autosave_folder()
+        if self._confirm("Restore scribbles?", f"{count} shape(s) have autosaved scribbles that differ from the ones "
+                         f"opened (the app closed before they were saved).\nRestore them? (No sets the autosave aside in {folder.parent})"):
+            restored = self.model.restore_autosave()
+            self.statusBar().showMessage(f"restored the scribbles of {len(restored)} shapes (Ctrl+Z undoes each)")
+        else:
+            self.model.discard_autosave()
+
+    def _on_delete_label(self) -> None:
+        row = self.label_list.currentRow()
+        if row < 0:
+            return
+        name = self.model.label_set.names[row]
+        if self._confirm("Delete label", f"Delete label '{name}'? Its scribbles are erased and its result faces unlabeled."):
+            erased = self.model.delete_label(row)
+            self.statusBar().showMessage(f"deleted '{name}' ({erased} scribbled faces erased)")
 
     # ---------------------------------------------------------------- export
+
+    def _on_export_current(self) -> None:
+        folder = QFileDialog.getExistingDirectory(self, "Export the current shape to")
+        if folder and self.model.current >= 0:
+            self.export_all(folder, only=[self.model.current])
 
     def _on_export(self) -> None:
         folder = QFileDialog.getExistingDirectory(self, "Export labeled meshes to")
         if folder:
             self.export_all(folder)
 
-    def export_all(self, folder) -> list:
-        """Write every shape that has a result (or scribbles) as PLY, SEG, OBJ, GLB, JSON."""
+    def export_all(self, folder, only=None) -> list:
+        """Write every shape (or those in `only`) that has a result or scribbles as PLY,
+        SEG, OBJ, GLB and JSON; what the user sees is what is written."""
         from scribbleseg_core.errors import ScribblesegError
         from scribbleseg_core.export import export_labeled_mesh
 
         written = []
         for i, entry in enumerate(self.model.shapes):
-            if entry.state == "error":
+            if entry.state == "error" or (only is not None and i not in only):
                 continue
             labels = self.model.shown_labels(i)
             labels = labels if labels is not None else self.model.layer(i).labels

@@ -62,6 +62,11 @@ class CollectionModel:
         Shape `index` changed state (untouched, scribbled, ...).
     edit_committed(index)
         A stroke ended, or an undo/redo happened, on shape `index` (time for a preview).
+    shapes_added(indices)
+        Meshes were appended to the collection.
+    restore_available(count)
+        After opening: autosaved scribbles of `count` shapes differ from the opened ones
+        (the app crashed or closed before a save); see :meth:`restore_autosave`.
     """
 
     def __init__(self, autosave_dir: str | os.PathLike | None = None) -> None:
@@ -76,7 +81,10 @@ class CollectionModel:
         self._brushes: dict[int, Brush] = {}
         self._last_point = None
         self.trained_model = None
+        self.session_path: Path | None = None
         self.collection_changed = Event()
+        self.restore_available = Event()
+        self.shapes_added = Event()
         self.current_changed = Event()
         self.error = Event()
         self.scribbles_changed = Event()
@@ -86,8 +94,14 @@ class CollectionModel:
         self.edit_committed = Event()
 
     def open(self, path: str | os.PathLike) -> None:
-        """Open a folder of meshes (with scribble files beside them or in ``scribbles/``) or one mesh."""
+        """Open a saved session, a folder of meshes (with scribble files beside them or in
+        ``scribbles/``), or one mesh. On failure the open collection stays as it was."""
+        from scribbleseg_core.session import is_session
+
         path = Path(path)
+        if is_session(path):
+            self.open_session(path)
+            return
         try:
             if path.is_dir():
                 coll = find_collection(path)
@@ -102,15 +116,164 @@ class CollectionModel:
         for s in shapes:
             if s.file_scribble is not None:
                 s.state = "scribbled"
-        self.folder = path if path.is_dir() else path.parent
+        self._install(path if path.is_dir() else path.parent, shapes, LabelSet.from_names(names), None, 0, None)
+
+    def _install(self, folder: Path, shapes, label_set: LabelSet, model, current: int, session_path: Path | None) -> None:
+        self.folder = folder
+        self.session_path = session_path
         self.shapes = shapes
         self._layers.clear()
         self._brushes.clear()
-        self.label_set = LabelSet.from_names(names)
+        self.label_set = label_set
+        self.trained_model = model
         self.current = -1
         self.collection_changed.emit()
         if shapes:
-            self.set_current(0)
+            self.set_current(current)
+        pending = self.autosaved_changes()
+        if pending:
+            self.restore_available.emit(len(pending))
+
+    def add_meshes(self, paths) -> list[int]:
+        """Add mesh files to the open collection (e.g. new shapes to predict); a file that
+        fails to load is reported and not added. Returns the new shape indices."""
+        added = []
+        known = {e.path.resolve() for e in self.shapes}
+        for p in map(Path, paths):
+            if p.resolve() in known:
+                continue
+            try:
+                load_mesh(p)
+            except ScribblesegError as e:
+                self.error.emit(str(e))
+                continue
+            self.shapes.append(ShapeEntry(p.resolve()))
+            added.append(len(self.shapes) - 1)
+        if added:
+            if self.folder is None:
+                self.folder = Path(paths[0]).resolve().parent
+            self.shapes_added.emit(added)
+        return added
+
+    def set_result(self, index: int, labels: np.ndarray, state: ShapeState) -> None:
+        """Store a run's or a prediction's labels (m0,) for shape `index`."""
+        entry = self.shapes[index]
+        entry.labels = np.asarray(labels, dtype=np.int64)
+        entry.preview = None  # the result is newer
+        if entry.state != state:
+            entry.state = state
+        self.state_changed.emit(index)
+        if index == self.current:
+            self.scribbles_changed.emit(index, np.zeros(0, np.int64))
+
+    # ------------------------------------------------------------------ sessions
+
+    def open_session(self, path: str | os.PathLike) -> None:
+        """Open a session folder written by :meth:`save_session`."""
+        from scribbleseg_core.session import load_session
+
+        try:
+            session = load_session(path)
+        except ScribblesegError as e:
+            self.error.emit(str(e))
+            return
+        shapes = []
+        for sh in session.shapes:
+            entry = ShapeEntry(sh.mesh, file_scribble=sh.scribble, labels=sh.labels, state=sh.state)
+            shapes.append(entry)
+        folder = Path(path) if Path(path).is_dir() else Path(path).parent
+        self._install(folder, shapes, session.label_set, session.model, session.current, folder)
+        for problem in session.problems:
+            self.error.emit(problem)
+
+    def save_session(self, folder: str | os.PathLike) -> list[str]:
+        """Write the collection, labels, scribbles, results and model into `folder`.
+
+        Returns
+        -------
+        list of str
+            Shapes left out (their mesh never loaded, so their face count is unknown).
+        """
+        from scribbleseg_core.session import Session, SessionShape, save_session
+
+        shapes, skipped = [], []
+        for i, entry in enumerate(self.shapes):
+            if entry.state == "error":
+                skipped.append(entry.name)
+                continue
+            n = entry.mesh().num_file_faces
+            scribble = self.layer(i).labels.copy()
+            state = entry.state if entry.state in ("labeled", "predicted") else ("scribbled" if (scribble >= 0).any() else "untouched")
+            shapes.append(SessionShape(entry.path, n, scribble, self.shown_labels(i), state))
+        current = max(0, self.current - sum(1 for e in self.shapes[: max(self.current, 0)] if e.state == "error"))
+        save_session(folder, Session(self.label_set, shapes, current, self.trained_model))
+        self.session_path = Path(folder)
+        return skipped
+
+    # ------------------------------------------------------------------ autosave
+
+    def autosave_folder(self) -> Path | None:
+        """Where this collection's scribbles are autosaved: one folder per collection."""
+        if self.autosave_dir is None or self.folder is None:
+            return None
+        import hashlib
+
+        key = hashlib.sha256(str(self.folder.resolve()).encode()).hexdigest()[:16]
+        return self.autosave_dir / key
+
+    def autosaved_changes(self) -> dict[int, tuple[np.ndarray, tuple[str, ...]]]:
+        """Autosaved scribbles that differ from what is open:
+        {shape index: ((m0,) labels, the label names they index)}.
+
+        Unreadable autosave files are reported through `error` and skipped.
+        """
+        from scribbleseg_core.scribbles import read_scribbles
+
+        folder = self.autosave_folder()
+        if folder is None or not folder.is_dir():
+            return {}
+        by_name = {e.name: i for i, e in enumerate(self.shapes)}
+        out = {}
+        for f in sorted(folder.glob("*.json")):
+            i = by_name.get(f.stem)
+            if i is None or self.shapes[i].state == "error":
+                continue
+            try:
+                scr = read_scribbles(f, num_faces=self.shapes[i].mesh().num_file_faces)
+            except ScribblesegError as e:
+                self.error.emit(f"autosave not restorable: {e}")
+                continue
+            labels = scr.face_labels()
+            if not np.array_equal(labels, self.layer(i).labels):
+                out[i] = (labels, scr.label_names)
+        return out
+
+    def restore_autosave(self) -> list[int]:
+        """Take the autosaved scribbles that differ from the open ones; returns the shapes."""
+        changes = self.autosaved_changes()
+        for i, (labels, names) in changes.items():
+            for name in names[len(self.label_set):]:  # labels added before the crash
+                self.add_label(name if name not in self.label_set.names else f"{name} (restored)")
+            layer = self.layer(i)
+            layer.begin()
+            layer.paint(np.arange(len(labels)), -1)
+            for lab in np.unique(labels[labels >= 0]):
+                layer.paint(np.flatnonzero(labels == lab), int(lab))
+            layer.end()  # one undo step: the restore can be undone
+            self.scribbles_changed.emit(i, np.arange(len(labels)))
+            self._after_edit(i)
+        return sorted(changes)
+
+    def discard_autosave(self) -> Path | None:
+        """Set the autosave aside (renamed, not deleted) so it is not offered again."""
+        import time
+
+        folder = self.autosave_folder()
+        if folder is None or not folder.is_dir():
+            return None
+        target = folder.with_name(f"{folder.name}-discarded-{time.strftime('%Y%m%d-%H%M%S')}")
+        folder.rename(target)
+        return target
 
     @staticmethod
     def _label_names_beside(folder: Path) -> tuple[str, ...]:
@@ -171,6 +334,49 @@ class CollectionModel:
         if self.current >= 0:
             self.scribbles_changed.emit(self.current, np.zeros(0, np.int64))
 
+    def delete_label(self, label: int) -> int:
+        """Remove `label`: its scribbles are erased and its result faces unlabeled; higher
+        ids move down by one. The trained model no longer fits and is dropped.
+
+        Returns
+        -------
+        int
+            Scribbled faces erased (over all shapes).
+        """
+        if not 0 <= label < len(self.label_set):
+            raise ValueError(f"label {label} out of range: there are {len(self.label_set)} labels")
+
+        def shift(a):
+            if a is None:
+                return None
+            a = a.copy()
+            a[a == label] = -1
+            a[a > label] -= 1
+            return a
+
+        erased = 0
+        for i, entry in enumerate(self.shapes):
+            if i in self._layers:
+                layer = self._layers[i]
+                erased += int((layer.labels == label).sum())
+                self._layers[i] = ScribbleLayer(shift(layer.labels))  # history ids no longer apply
+            elif entry.file_scribble is not None:
+                erased += int((entry.file_scribble == label).sum())
+            entry.file_scribble = shift(entry.file_scribble)
+            entry.labels, entry.preview = shift(entry.labels), shift(entry.preview)
+        keep = [j for j in range(len(self.label_set)) if j != label]
+        self.label_set = LabelSet.from_names([self.label_set.names[j] for j in keep], self.label_set.colors[keep])
+        self.trained_model = None
+        if self.current_label >= len(self.label_set) or self.current_label == label:
+            self.current_label = 0 if len(self.label_set) else -1
+        self.labels_changed.emit()
+        for i in self._layers:
+            self._refresh_state(i)
+            self.autosave(i)
+        if self.current >= 0:
+            self.scribbles_changed.emit(self.current, np.zeros(0, np.int64))
+        return erased
+
     def set_current_label(self, label: int) -> None:
         """Paint with `label` (-1: erase)."""
         if not -1 <= label < len(self.label_set):
@@ -221,6 +427,11 @@ class CollectionModel:
             self._after_edit(self.current)
 
     def _after_edit(self, index: int) -> None:
+        self._refresh_state(index)
+        self.autosave(index)
+        self.edit_committed.emit(index)
+
+    def _refresh_state(self, index: int) -> None:
         entry = self.shapes[index]
         has = bool((self.layer(index).labels >= 0).any())
         if entry.state in ("untouched", "scribbled"):
@@ -228,8 +439,6 @@ class CollectionModel:
             if state != entry.state:
                 entry.state = state
                 self.state_changed.emit(index)
-        self.autosave(index)
-        self.edit_committed.emit(index)
 
     def shown_labels(self, index: int) -> np.ndarray | None:
         """The labels the user sees for shape `index` (the preview if newer than the last
@@ -246,8 +455,17 @@ class CollectionModel:
         entry = self.shapes[index]
         labels = self.layer(index).labels
         strokes = tuple(Stroke(int(lab), np.flatnonzero(labels == lab)) for lab in np.unique(labels[labels >= 0]))
-        path = self.autosave_dir / f"{entry.name}.json"
-        write_scribbles(path, Scribbles(entry.path.name, len(labels), self.label_set.names, strokes))
+        folder = self.autosave_folder()
+        path = folder / f"{entry.name}.json"
+        try:
+            if not (folder / "collection.txt").is_file():
+                from scribbleseg_core.atomic import atomic_write_text
+
+                atomic_write_text(folder / "collection.txt", f"{self.folder.resolve()}\n")
+            write_scribbles(path, Scribbles(entry.path.name, len(labels), self.label_set.names, strokes))
+        except OSError as e:  # the edit itself stands; only its safety copy failed
+            self.error.emit(f"{path}: autosave failed: {e}")
+            return None
         return path
 
     def face_colors(self, index: int) -> np.ndarray:

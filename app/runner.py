@@ -15,8 +15,9 @@ from scribbleseg_core.mesh_io import Mesh
 from scribbleseg_core.optimize import SegmentParams
 from scribbleseg_core.pipeline import FeaturesDone, Predicted, StepDone
 from scribbleseg_core.pipeline import collection_run as _collection_run
+from scribbleseg_core.pipeline import predict_run as _predict_run
 
-__all__ = ["FeaturesDone", "Predicted", "StepDone", "collection_run", "limit_threads"]
+__all__ = ["FeaturesDone", "Predicted", "StepDone", "collection_run", "limit_threads", "predict_run"]
 
 
 def limit_threads(n: int = 1) -> None:
@@ -42,3 +43,9 @@ def collection_run(
     ``thread_worker`` only makes a streaming worker of generator functions."""
     params = replace(params, network=replace(params.network, threads=1))
     yield from _collection_run(meshes, scribbles, label_names, params)
+
+
+def predict_run(model, meshes: Sequence[Mesh]) -> Iterator[FeaturesDone | Predicted]:
+    """:func:`scribbleseg_core.pipeline.predict_run` on one torch thread (see above)."""
+    model.classifier.params = replace(model.classifier.params, threads=1)
+    yield from _predict_run(model, meshes)

@@ -53,6 +53,8 @@ class PolyscopeViewport:
         self._orbit = None  # (center (3,), distance, yaw, pitch) of the paint-mode camera
         self._input = None
         self._key_handler = None
+        self._hover_handler = None
+        self._last_hover = 0.0
         ps.set_user_callback(self._on_frame)
 
     def set_key_handler(self, handler) -> None:
@@ -60,6 +62,11 @@ class PolyscopeViewport:
         never sees those): ``"undo"``, ``"redo"``, ``"label 0"`` .. ``"label 8"``,
         ``"brush -"``, ``"brush +"``."""
         self._key_handler = handler
+
+    def set_hover_handler(self, handler) -> None:
+        """``handler(face)`` with the file face id under a resting or moving mouse, or -1
+        off the shape; called at most every 100 ms, never while painting."""
+        self._hover_handler = handler
 
     @property
     def paint_mode(self) -> bool:
@@ -99,6 +106,19 @@ class PolyscopeViewport:
             for command in inp.keys:
                 self._key_handler(command)
         self._handle_mouse(inp)
+        self._handle_hover(inp)
+
+    def _handle_hover(self, inp: _MouseInput) -> None:
+        import time
+
+        if self._hover_handler is None or self._painting or any(inp.down) or inp.captured:
+            return
+        if inp.delta == (0.0, 0.0) or time.perf_counter() - self._last_hover < 0.1:
+            return
+        self._last_hover = time.perf_counter()
+        r = self._ps.pick(screen_coords=(int(inp.pos[0]), int(inp.pos[1])))
+        data = r.structure_data if r.is_hit and r.structure_name == STRUCTURE else {}
+        self._hover_handler(int(data["index"]) if data.get("element_type") == "face" else -1)
 
     def _handle_mouse(self, inp: _MouseInput) -> None:
         """Paint mode: a left drag that starts on the shape paints; a left drag that starts

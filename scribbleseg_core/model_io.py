@@ -22,6 +22,7 @@ from scribbleseg_core.features import FEATURE_VERSION, NUM_FEATURES
 from scribbleseg_core.network import FaceClassifier, NetworkParams
 from scribbleseg_core.optimize import SegmentParams, TrainedModel
 from scribbleseg_core.patch_features import PatchEncoder
+from scribbleseg_core.propagate import PropagateParams
 from scribbleseg_core.refine import RefineParams
 
 FORMAT = "scribbleseg-model"
@@ -101,6 +102,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         p = meta["params"]
         net = NetworkParams(**{**p["network"], "hidden": tuple(p["network"]["hidden"])})
         params = SegmentParams(**{**p, "network": net, "refinement": RefineParams(**p["refinement"]),
+                                  "propagation": PropagateParams(**p.get("propagation", {})),
                                   "context_scales": tuple(p["context_scales"])})
         with np.load(folder / "arrays.npz", allow_pickle=False) as z:
             arr = {key: z[key] for key in z.files}

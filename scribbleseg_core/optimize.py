@@ -25,6 +25,7 @@ from scribbleseg_core.energy import (
 from scribbleseg_core.graphcut import alpha_expansion
 from scribbleseg_core.network import FaceClassifier, NetworkParams
 from scribbleseg_core.patches import nearest_scribble_labels
+from scribbleseg_core.propagate import PropagateParams, propagate_scribbles
 from scribbleseg_core.patch_features import PatchEncoder, feature_delta, fit_patch_encoder
 from scribbleseg_core.refine import RefineParams, refine_labels
 from scribbleseg_core.shape import ShapeData
@@ -48,13 +49,17 @@ class SegmentParams:
         Beyond the paper: diffusion times of the context added to the network's input
         (the 22 signatures diffused over the surface); ``()`` gives the paper's 22 inputs.
     refine : bool
-        Run the face-level refinement after convergence.
-    init : {"geodesic", "paper"}
+        Run the face-level refinement after convergence: on scribbled shapes the scribble
+        propagation of :mod:`scribbleseg_core.propagate` with the network's
+        log-probabilities (`propagation`), on unseen shapes :func:`refine_labels`
+        (`refinement`).
+    init : {"propagate", "geodesic", "paper"}
         The initial graph cut: ``"paper"`` uses eq. 1 alone (uniform cost on unscribbled
         patches), which has graph cuts' shrinking bias: with short strokes, cutting
         around a small stroke is cheaper than cutting at the real part boundaries.
-        ``"geodesic"`` adds, for the initial cut only, the area fraction of each patch
-        whose nearest scribble (crease-aware geodesic metric) has another label.
+        The others add, for the initial cut only, the area fraction of each patch whose
+        faces disagree with a face labeling made from the scribbles: the scribble
+        propagation (``"propagate"``) or each face's nearest scribble (``"geodesic"``).
     """
 
     lam: float = 1.0
@@ -62,9 +67,10 @@ class SegmentParams:
     max_iterations: int = 6
     tolerance: float = 1e-3
     refine: bool = True
-    init: Literal["geodesic", "paper"] = "geodesic"
+    init: Literal["propagate", "geodesic", "paper"] = "propagate"
     network: NetworkParams = field(default_factory=NetworkParams)
     refinement: RefineParams = field(default_factory=RefineParams)
+    propagation: PropagateParams = field(default_factory=PropagateParams)
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,9 +165,16 @@ def segment_collection(
     P = [s.patch_matrix() for s in shapes]
 
     # (3a) initial graph cuts without the network term
-    if params.init not in ("geodesic", "paper"):
-        raise ValueError(f"init must be 'geodesic' or 'paper'; got {params.init!r}")
-    U_init = U_scr if params.init == "paper" else [U + _geodesic_unary(s, k, w) for U, s, w in zip(U_scr, shapes, W)]
+    if params.init not in ("propagate", "geodesic", "paper"):
+        raise ValueError(f"init must be 'propagate', 'geodesic' or 'paper'; got {params.init!r}")
+    if params.init == "paper":
+        U_init = U_scr
+    else:
+        if params.init == "propagate":
+            guide = [propagate_scribbles(s.graph, s.scribble, k, params=params.propagation) for s in shapes]
+        else:
+            guide = [nearest_scribble_labels(s.graph, s.scribble) for s in shapes]
+        U_init = [U + _guide_unary(s, g, k, w) for U, s, g, w in zip(U_scr, shapes, guide, W)]
     y = [alpha_expansion(U, s.patch_pairs, w) for U, s, w in zip(U_init, shapes, W)]
     energy = _total(y, U_scr, None, shapes, W)
     faces = [yi[s.patch] for yi, s in zip(y, shapes)]
@@ -207,20 +220,16 @@ def segment_collection(
     if params.refine and model is not None:
         t = time.perf_counter()
         logp = [clf.log_proba(x) for x in inputs]
-        faces = [
-            refine_labels(s.graph, lp, pf, s.scribbled_labels, s.scribble, params.refinement)
-            for s, lp, pf in zip(shapes, logp, patch_faces)
-        ]
+        faces = [propagate_scribbles(s.graph, s.scribble, k, log_proba=lp, params=params.propagation) for s, lp in zip(shapes, logp)]
         yield Snapshot(it, "refine", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
     yield Snapshot(it, "done", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t0, model)
 
 
-def _geodesic_unary(shape: ShapeData, k: int, weights: np.ndarray) -> np.ndarray:
-    """(p, k): area fraction of each patch whose nearest scribble is not label l, times
-    half the patch's weighted degree in the feature term (so the cue and the pairwise
-    term are on one scale: a patch leaves its nearest scribble's label only where that
-    removes at least half its boundary cost)."""
-    near = nearest_scribble_labels(shape.graph, shape.scribble)
+def _guide_unary(shape: ShapeData, near: np.ndarray, k: int, weights: np.ndarray) -> np.ndarray:
+    """(p, k): area fraction of each patch whose guide label `near` (m,) is not label l,
+    times half the patch's weighted degree in the feature term (so the cue and the
+    pairwise term are on one scale: a patch leaves its guide's label only where that
+    removes at least half its boundary cost). Faces with guide -1 do not count."""
     reached = near >= 0
     A = np.zeros((len(near), k))
     A[np.flatnonzero(reached), near[reached]] = shape.area[reached]

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from scribbleseg_core.mesh_io import Mesh
-from scribbleseg_core.optimize import SegmentParams, Snapshot, predict_shape, segment_collection
+from scribbleseg_core.optimize import SegmentParams, Snapshot, TrainedModel, predict_shape, segment_collection
 from scribbleseg_core.shape import prepare_shape
 
 
@@ -87,3 +87,20 @@ def collection_run(
         if not s.is_scribbled and last is not None and last.model is not None:
             labels, _ = predict_shape(last.model, s)
             yield Predicted(i, meshes[i].labels_to_file(labels))
+
+
+def predict_run(model: TrainedModel, meshes: Sequence[Mesh], *, num_patches: int = 50) -> Iterator[FeaturesDone | Predicted]:
+    """Segment `meshes` with a trained model, one at a time (features, then prediction).
+
+    Yields
+    ------
+    FeaturesDone
+        After each shape is prepared.
+    Predicted
+        Its labels per file face.
+    """
+    for i, mesh in enumerate(meshes):
+        shape = prepare_shape(mesh, num_patches=num_patches)
+        yield FeaturesDone(i, i + 1, len(meshes))
+        labels, _ = predict_shape(model, shape)
+        yield Predicted(i, mesh.labels_to_file(labels))

@@ -9,13 +9,6 @@ from PySide6.QtCore import Qt
 pytest.importorskip("PySide6")
 
 
-@pytest.fixture(scope="module")
-def viewport():
-    from app.viewport import PolyscopeViewport
-
-    return PolyscopeViewport("openGL3_egl")
-
-
 def test_opens_the_demo_collection_and_shows_shapes(qtbot, viewport, tmp_path):
     from app.main_window import DEFAULT_COLLECTION, MainWindow
 
@@ -97,7 +90,7 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     preview = w.model.shapes[1].preview
     assert preview is not None and (preview == 1).all()  # one label painted: all head
     assert 0 < w.last_preview_seconds < 5 and "preview in" in w.statusBar().currentMessage()
-    saved = json.loads((tmp_path / "autosave" / "quadruped_02.json").read_text())
+    saved = json.loads((w.model.autosave_folder() / "quadruped_02.json").read_text())
     assert saved["strokes"][0]["label"] == 1 and len(saved["strokes"][0]["faces"]) == len(painted)
     # the painted faces form one connected band: no gaps between the two samples
     from scribbleseg_core.metrics import split_components
@@ -173,3 +166,86 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
     for e in w.model.shapes:
         np.testing.assert_array_equal(read_ply_labels(tmp_path / "export" / f"{e.name}.ply"), e.labels)
     assert len(trimesh.load(tmp_path / "export" / "quadruped_05.ply", process=False).faces) == len(w.model.shapes[4].labels)
+    # save the session, reopen it in a fresh window: the same scribbles, results and model
+    monkeypatch.setattr("PySide6.QtWidgets.QFileDialog.getExistingDirectory", lambda *a, **k: str(tmp_path / "session"))
+    assert w.save_session()  # no session folder yet: asks for one
+    w2 = MainWindow(str(tmp_path / "session"), viewport=viewport, autosave_dir=tmp_path / "autosave2")
+    qtbot.addWidget(w2)
+    assert w2.model.session_path == tmp_path / "session" and w2.model.trained_model is not None
+    assert w2.model.label_set.names == w.model.label_set.names
+    for i, (a, b) in enumerate(zip(w.model.shapes, w2.model.shapes)):
+        assert a.path == b.path and a.state == b.state
+        np.testing.assert_array_equal(a.labels, b.labels)
+        np.testing.assert_array_equal(w.model.layer(i).labels, w2.model.layer(i).labels)
+    # a mesh opened later is predicted with the reopened model
+    import shutil
+
+    extra = tmp_path / "later" / "newcomer.ply"
+    extra.parent.mkdir()
+    shutil.copy(w.model.shapes[4].path, extra)
+    assert w2.model.add_meshes([extra]) == [10] and w2.shape_list.count() == 11
+    w2.predict_button.click()
+    qtbot.waitUntil(lambda: w2.worker is None, timeout=120_000)
+    assert w2.model.shapes[10].state == "predicted"
+    assert (w2.model.shapes[10].labels == w.model.shapes[4].labels).mean() > 0.95  # same mesh, same model
+    # export only the current shape
+    w2.shape_list.setCurrentRow(10)
+    written = w2.export_all(tmp_path / "export_one", only=[w2.model.current])
+    assert sorted(p.suffix for p in written) == [".glb", ".json", ".mtl", ".obj", ".ply", ".seg"]
+    # inspect: a feature as the surface color (computed in the background, from the cache)
+    w2.show_combo.setCurrentText("Feature: SDF")
+    qtbot.waitUntil(lambda: (10, 1) in w2._features, timeout=60_000)
+    colors = w2.shown_colors(10)
+    assert colors.shape == (len(w2.model.shapes[10].labels), 3) and colors.std(axis=0).max() > 0.05
+    w2._on_hover(5)
+    assert "face 5: label" in w2.statusBar().currentMessage() and "SDF =" in w2.statusBar().currentMessage()
+
+
+def test_autosaved_scribbles_are_offered_after_a_crash(qtbot, viewport, tmp_path, monkeypatch):
+    from app.main_window import MainWindow
+
+    w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(w)
+    layer = w.model.layer(1)
+    layer.begin()
+    layer.paint(np.arange(30), 2)
+    layer.end()
+    w.model._after_edit(1)  # what a mouse stroke ends with: the autosave
+    painted = layer.labels.copy()
+    w.close()  # "crash": nothing saved but the autosave
+    asked = []
+    monkeypatch.setattr(MainWindow, "_confirm", lambda self, title, text: asked.append(text) or True)
+    w2 = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(w2)
+    qtbot.waitUntil(lambda: bool(asked), timeout=5000)
+    assert "1 shape(s)" in asked[0]
+    np.testing.assert_array_equal(w2.model.layer(1).labels, painted)
+    w2.model_undo() if w2.model.current == 1 else None
+    # declined: set aside, not offered again, nothing deleted
+    monkeypatch.setattr(MainWindow, "_confirm", lambda self, title, text: asked.append(text) or False)
+    w2.model.layer(1).begin()
+    w2.model.layer(1).paint(np.arange(30, 40), 0)
+    w2.model.layer(1).end()
+    w2.model._after_edit(1)
+    w3 = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(w3)
+    qtbot.waitUntil(lambda: len(asked) == 2, timeout=5000)
+    assert list((tmp_path / "autosave").glob("*-discarded-*"))
+    w4 = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(w4)
+    qtbot.wait(200)
+    assert len(asked) == 2
+
+
+def test_delete_label_erases_its_scribbles_and_shifts_ids(qtbot, viewport, tmp_path, monkeypatch):
+    from app.main_window import MainWindow
+
+    w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(w)
+    before = w.model.layer(0).labels.copy()  # demo scribbles: body 0, head 1, leg 2, tail 3
+    monkeypatch.setattr(MainWindow, "_confirm", lambda self, title, text: True)
+    w.label_list.setCurrentRow(1)
+    w.delete_label_button.click()
+    assert w.model.label_set.names == ("body", "leg", "tail") and w.label_list.count() == 3
+    after = w.model.layer(0).labels
+    assert (after[before == 1] == -1).all() and (after[before == 2] == 1).all() and (after[before == 0] == 0).all()
