@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from scribbleseg_core.dual_graph import dual_graph
-from scribbleseg_core.propagate import propagate_scribbles, scribble_distances
+from scribbleseg_core.propagate import PropagateParams, propagate_scribbles, scribble_distances
 from tests.core.planted import LABELS, creature, stroke_faces
 
 
@@ -33,8 +33,10 @@ def test_network_term_can_override_distance(planted):
     # a confident "network" that knows the truth fixes what distance alone gets wrong
     logp = np.log(np.where(np.arange(len(LABELS))[None, :] == gt[:, None], 0.97, 0.03 / (len(LABELS) - 1)))
     alone = (propagate_scribbles(graph, scribble, len(LABELS)) == gt).mean()
-    labels = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp)
+    labels = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=PropagateParams(network=1.0))
     assert (labels == gt).mean() >= max(0.975, alone + 0.01)
+    off = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=PropagateParams(network=0.0))
+    assert (off == gt).mean() == alone  # weight 0: the network is ignored
 
 
 def test_distances_are_zero_on_own_scribbles_and_inf_for_absent_labels(planted):
