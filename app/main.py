@@ -8,7 +8,7 @@ import sys
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="scribbleseg-app", description="Paint scribbles, segment a collection.")
-    parser.add_argument("path", nargs="?", help="a folder of meshes or one mesh (default: the bundled demo creatures)")
+    parser.add_argument("path", nargs="?", help="a folder of meshes, one mesh, or a saved session folder (default: the bundled demo creatures)")
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
 
     from PySide6.QtWidgets import QApplication
