@@ -33,7 +33,7 @@ def test_network_term_can_override_distance(planted):
     # a confident "network" that knows the truth fixes what distance alone gets wrong
     logp = np.log(np.where(np.arange(len(LABELS))[None, :] == gt[:, None], 0.97, 0.03 / (len(LABELS) - 1)))
     alone = (propagate_scribbles(graph, scribble, len(LABELS)) == gt).mean()
-    labels = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=PropagateParams(network=1.0))
+    labels = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=PropagateParams(network=3.0))
     assert (labels == gt).mean() >= max(0.975, alone + 0.01)
     off = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=PropagateParams(network=0.0))
     assert (off == gt).mean() == alone  # weight 0: the network is ignored
