@@ -167,6 +167,10 @@ class MainWindow(QMainWindow):
         self._features: dict[tuple[int, int], np.ndarray] = {}
         self._features_pending: set[int] = set()
         self._collection_generation = 0
+        self._last_frame: float | None = None
+        self.run_max_frame_gap = 0.0  # longest time between two frames during the last run (s)
+        self.run_seconds = 0.0
+        self._run_started = 0.0
         # Application-wide: one main window, and text fields still take their own keys.
         app_wide = Qt.ShortcutContext.ApplicationShortcut
         self.undo_action = QAction("Undo", self, shortcut=QKeySequence.StandardKey.Undo, triggered=self.model_undo)
@@ -514,6 +518,8 @@ class MainWindow(QMainWindow):
         for b in (self.run_button, self.predict_button):
             b.setEnabled(not on)
         self.stop_button.setEnabled(on)
+        if on:
+            self.run_max_frame_gap, self._run_started = 0.0, time.perf_counter()
 
     def stop_run(self) -> None:
         if self.worker is not None:
@@ -544,7 +550,10 @@ class MainWindow(QMainWindow):
     def _on_run_finished(self) -> None:
         self._set_running(False)
         self.worker = None
-        self.statusBar().showMessage("finished")
+        self.run_seconds = time.perf_counter() - self._run_started
+        self.statusBar().showMessage(
+            f"finished in {self.run_seconds:.1f} s (longest frame gap {self.run_max_frame_gap * 1000:.0f} ms)"
+        )
 
     # ---------------------------------------------------------------- files
 
@@ -668,5 +677,9 @@ class MainWindow(QMainWindow):
         super().closeEvent(event)
 
     def _on_frame(self) -> None:
+        now = time.perf_counter()
+        if self.worker is not None and self._last_frame is not None:
+            self.run_max_frame_gap = max(self.run_max_frame_gap, now - self._last_frame)
+        self._last_frame = now
         if self._viewport is not None:
             self._viewport.tick()

@@ -130,8 +130,15 @@ def _cmd_bench(args) -> int:
     modes = {"train": ["train"], "test": ["test"], "both": ["train", "test"], "scribbled": ["scribbled"], "given": ["given"],
              "all": ["train", "test", "scribbled"]}[args.mode]
     progress = None if args.quiet else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
+    from dataclasses import replace
+
+    from scribbleseg_core.optimize import SegmentParams
+
+    base = SegmentParams()
+    params = replace(base, network=replace(base.network, threads=args.threads))
     report = bench(root, Path(args.out), modes=modes, cats=args.categories, folds=args.folds,
-                   scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed, progress=progress)
+                   scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed,
+                   params=params, progress=progress)
     print((Path(args.out) / "report.md").read_text())
     return 0 if report["verified"] else 1
 
@@ -175,6 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
                    help="face-level refinement (--no-refine: the paper's patch-level result)")
     p.add_argument("--seed", type=int, default=0, help="scribbled mode: which shapes keep scribbles")
+    p.add_argument("--threads", type=int, default=2, help="torch threads for training (1 when running two benchmarks at once)")
     p.add_argument("--out", required=True)
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_bench)

@@ -74,6 +74,8 @@ def main(out: Path = ROOT / "docs") -> None:
         app.processEvents()
         viewport.tick()
         time.sleep(0.016)
+    app.processEvents()
+    print(w.statusBar().currentMessage())
     w.shape_list.setCurrentRow(4)  # no scribbles: predicted
     for _ in range(5):
         app.processEvents()

@@ -153,6 +153,8 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
     assert not w.run_button.isEnabled() and w.stop_button.isEnabled()
     qtbot.waitUntil(lambda: w.worker is None, timeout=300_000)
     assert viewport.frames > frames_before + 10  # the window kept rendering during the run
+    assert w.run_seconds > 0 and 0 < w.run_max_frame_gap < w.run_seconds
+    assert "finished in" in w.statusBar().currentMessage()
     states = [e.state for e in w.model.shapes]
     assert states.count("labeled") == 3 and states.count("predicted") == 7
     assert len(w.energy_plot.values) >= 2
