@@ -683,3 +683,6 @@ class MainWindow(QMainWindow):
         self._last_frame = now
         if self._viewport is not None:
             self._viewport.tick()
+            if self._viewport.close_requested:  # closing the viewport window quits the app
+                self.timer.stop()
+                self.close()

@@ -47,6 +47,7 @@ class PolyscopeViewport:
         ps.set_ground_plane_mode("shadow_only")
         ps.set_up_dir("z_up")
         self.frames = 0
+        self.close_requested = False  # the user closed polyscope's window
         self._paint_mode = False
         self._painting = False
         self._handlers = None
@@ -207,6 +208,7 @@ class PolyscopeViewport:
         self._input = None
         self._ps.frame_tick()
         self.frames += 1
+        self.close_requested = bool(self._ps.window_requests_close())
         if self._input is not None:
             self._handle(self._input)
 
