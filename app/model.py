@@ -148,6 +148,7 @@ class CollectionModel:
                 self.error.emit(str(e))
                 continue
             self.shapes.append(ShapeEntry(p.resolve()))
+            known.add(p.resolve())
             added.append(len(self.shapes) - 1)
         if added:
             if self.folder is None:

@@ -1,0 +1,93 @@
+"""The app's model without widgets: sessions, added meshes, bad input keeps the session intact."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from app.model import CollectionModel
+from tests.conftest import icosphere, write_off
+
+
+def _collection(tmp_path, n=3):
+    V, F = icosphere(1)
+    folder = tmp_path / "coll"
+    folder.mkdir()
+    for i in range(n):
+        write_off(folder / f"s{i}.off", V, F)
+    return folder
+
+
+def _model(tmp_path, folder):
+    m = CollectionModel(tmp_path / "autosave")
+    errors = []
+    m.error.connect(errors.append)
+    m.open(folder)
+    m.add_label("a")
+    m.add_label("b")
+    return m, errors
+
+
+def _paint(m, index, faces, label):
+    layer = m.layer(index)
+    layer.begin()
+    layer.paint(np.asarray(faces), label)
+    layer.end()
+    m._after_edit(index)
+
+
+def test_bad_added_mesh_is_reported_and_not_added(tmp_path):
+    m, errors = _model(tmp_path, _collection(tmp_path))
+    (tmp_path / "bad.off").write_text("OFF\n3 1 0\n0 0 0\n")
+    added = []
+    m.shapes_added.connect(added.append)
+    assert m.add_meshes([tmp_path / "bad.off"]) == []
+    assert "bad.off: truncated" in errors[-1] and len(m.shapes) == 3 and added == []
+    V, F = icosphere(1)
+    write_off(tmp_path / "new.off", V, F)
+    assert m.add_meshes([tmp_path / "new.off", tmp_path / "new.off"]) == [3]  # once
+    assert added == [[3]] and m.shapes[3].state == "untouched"
+
+
+def test_session_round_trip_through_the_model(tmp_path):
+    folder = _collection(tmp_path)
+    m, errors = _model(tmp_path, folder)
+    _paint(m, 1, [0, 1, 2], 1)
+    m.set_result(2, np.arange(80) % 2, "predicted")
+    m.recolor_label(0, (0.1, 0.2, 0.3))
+    assert m.save_session(tmp_path / "sess") == []
+    m2, errors2 = CollectionModel(tmp_path / "autosave2"), []
+    m2.error.connect(errors2.append)
+    m2.open(tmp_path / "sess")  # open() recognizes a session folder
+    assert errors2 == [] and m2.session_path == tmp_path / "sess"
+    assert m2.label_set.names == ("a", "b") and np.allclose(m2.label_set.colors[0], (0.1, 0.2, 0.3))
+    assert [e.state for e in m2.shapes] == ["untouched", "scribbled", "predicted"]
+    np.testing.assert_array_equal(m2.layer(1).labels, m.layer(1).labels)
+    np.testing.assert_array_equal(m2.shapes[2].labels, np.arange(80) % 2)
+
+
+def test_a_bad_session_leaves_the_open_collection_alone(tmp_path):
+    folder = _collection(tmp_path)
+    m, errors = _model(tmp_path, folder)
+    _paint(m, 0, [5], 0)
+    m.save_session(tmp_path / "sess")
+    doc = json.loads((tmp_path / "sess" / "session.json").read_text())
+    doc["version"] = 7
+    (tmp_path / "sess" / "session.json").write_text(json.dumps(doc))
+    m.open(tmp_path / "sess")
+    assert "newer than this scribbleseg" in errors[-1] and "session.json" in errors[-1]
+    assert m.folder == folder and m.layer(0).labels[5] == 0  # nothing lost
+
+
+def test_delete_label_updates_results_and_drops_the_model(tmp_path):
+    m, _ = _model(tmp_path, _collection(tmp_path))
+    m.add_label("c")
+    _paint(m, 0, [0, 1], 2)
+    _paint(m, 0, [2], 0)
+    m.set_result(1, np.r_[np.zeros(40, int), np.full(40, 2)], "predicted")
+    m.trained_model = object()
+    assert m.delete_label(0) == 1
+    assert m.label_set.names == ("b", "c") and m.trained_model is None
+    assert list(m.layer(0).labels[:3]) == [1, 1, -1]
+    assert set(m.shapes[1].labels[:40]) == {-1} and set(m.shapes[1].labels[40:]) == {1}
