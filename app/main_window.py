@@ -67,6 +67,19 @@ def _swatch(rgb) -> QIcon:
     return QIcon(pm)
 
 
+def warm_imports() -> None:
+    """Import the engine's heavy modules now, on the main thread. Imported first inside a
+    worker, torch alone holds the interpreter for about a second, and the viewport freezes
+    mid-run."""
+    import maxflow  # noqa: F401
+    import potpourri3d  # noqa: F401
+    import scipy.sparse.linalg  # noqa: F401
+    import torch  # noqa: F401
+
+    import scribbleseg_core.optimize  # noqa: F401
+    import scribbleseg_core.pipeline  # noqa: F401
+
+
 class MainWindow(QMainWindow):
     """Top-level window; the viewport is polyscope's own window (it cannot be embedded).
 
@@ -82,6 +95,7 @@ class MainWindow(QMainWindow):
 
     def __init__(self, path: str | None = None, viewport=None, autosave_dir=None):
         super().__init__()
+        warm_imports()
         self.setWindowTitle(f"scribbleseg {__version__}")
         self.resize(460, 720)
         if autosave_dir is None:
@@ -461,16 +475,16 @@ class MainWindow(QMainWindow):
         """Segment the scribbled shapes and predict the others, in a worker thread."""
         from superqt.utils import thread_worker
 
-        from app.runner import collection_run, limit_threads
+        from app.runner import LazyMeshes, collection_run, limit_threads
 
         m = self.model
         usable = [i for i, e in enumerate(m.shapes) if e.state != "error"]
-        scribbles = [m.layer(i).labels.copy() for i in usable]
-        if not any((s >= 0).any() for s in scribbles):
+        scribbles = [m.scribble_labels(i) for i in usable]
+        if not any(s is not None and (s >= 0).any() for s in scribbles):
             self._on_error("paint at least one stroke before segmenting")
             return
         limit_threads(1)
-        meshes = [m.shapes[i].mesh() for i in usable]
+        meshes = LazyMeshes([m.shapes[i].mesh for i in usable])  # loaded by the worker
         self._run_indices = usable
         self.energy_plot.clear()
         self.progress.setRange(0, len(usable))
@@ -488,7 +502,7 @@ class MainWindow(QMainWindow):
         the run) with the trained network, in a worker thread."""
         from superqt.utils import thread_worker
 
-        from app.runner import limit_threads, predict_run
+        from app.runner import LazyMeshes, limit_threads, predict_run
 
         m = self.model
         if m.trained_model is None:
@@ -497,7 +511,7 @@ class MainWindow(QMainWindow):
         if len(m.trained_model.label_names) != len(m.label_set):
             self._on_error("the labels changed since the network was trained: run 'Segment collection' again")
             return
-        targets = [i for i, e in enumerate(m.shapes) if e.state == "untouched" and not (m.layer(i).labels >= 0).any()]
+        targets = [i for i, e in enumerate(m.shapes) if e.state == "untouched" and not m.has_scribbles(i)]
         if not targets:
             self.statusBar().showMessage("every shape already has scribbles or a result")
             return
@@ -505,7 +519,7 @@ class MainWindow(QMainWindow):
         self._run_indices = targets
         self.progress.setRange(0, len(targets))
         self.progress.setValue(0)
-        meshes = [m.shapes[i].mesh() for i in targets]
+        meshes = LazyMeshes([m.shapes[i].mesh for i in targets])
         self.worker = thread_worker(predict_run, start_thread=False)(m.trained_model, meshes)
         self.worker.yielded.connect(self._on_run_message)
         self.worker.errored.connect(lambda e: self._on_error(f"prediction failed: {e}"))

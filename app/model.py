@@ -306,6 +306,18 @@ class CollectionModel:
             self._layers[index] = ScribbleLayer(start)
         return self._layers[index]
 
+    def scribble_labels(self, index: int) -> np.ndarray | None:
+        """A copy of shape `index`'s scribbles per file face (m0,), or None when it has
+        none; unlike :meth:`layer` it never loads the mesh."""
+        if index in self._layers:
+            return self._layers[index].labels.copy()
+        start = self.shapes[index].file_scribble
+        return None if start is None else np.array(start, dtype=np.int64)
+
+    def has_scribbles(self, index: int) -> bool:
+        s = self.scribble_labels(index)
+        return s is not None and bool((s >= 0).any())
+
     def add_label(self, name: str) -> int:
         """Append a label; returns its id."""
         name = name.strip()

@@ -6,7 +6,7 @@ Re-exports the pipeline's messages so the window imports them from one place.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -17,7 +17,7 @@ from scribbleseg_core.pipeline import FeaturesDone, Predicted, StepDone
 from scribbleseg_core.pipeline import collection_run as _collection_run
 from scribbleseg_core.pipeline import predict_run as _predict_run
 
-__all__ = ["FeaturesDone", "Predicted", "StepDone", "collection_run", "limit_threads", "predict_run"]
+__all__ = ["FeaturesDone", "LazyMeshes", "Predicted", "StepDone", "collection_run", "limit_threads", "predict_run"]
 
 
 def limit_threads(n: int = 1) -> None:
@@ -30,6 +30,23 @@ def limit_threads(n: int = 1) -> None:
         threadpool_limits(n)
     except ImportError:
         pass
+
+
+class LazyMeshes(Sequence):
+    """Meshes loaded on first access, in whichever thread asks: the worker, so the GUI
+    thread never waits for a file. `loaders` are callables returning a Mesh (e.g.
+    ``ShapeEntry.mesh``, which caches)."""
+
+    def __init__(self, loaders: Sequence[Callable[[], Mesh]]) -> None:
+        self._loaders = list(loaders)
+
+    def __len__(self) -> int:
+        return len(self._loaders)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        return self._loaders[i]()
 
 
 def collection_run(
