@@ -47,12 +47,20 @@ class ShapeData:
     def network_input(self, context_scales: tuple[float, ...] = ()) -> np.ndarray:
         """The classifier's input per face: the 22 signatures, then the same diffused at
         each of `context_scales` (see :mod:`scribbleseg_core.context`); (m, 22 · (1 + s)).
-        Cached per scales."""
+        Kept per scales, and on disk (the ``context`` cache beside the features': the
+        sparse factorizations cost 0.1–1 s a shape and hold the interpreter meanwhile)."""
         key = ("input", tuple(context_scales))
         if key not in self._cache:
+            from scribbleseg_core.cache import hash_arrays
             from scribbleseg_core.context import diffuse_face_values
 
-            ctx = diffuse_face_values(self.graph, self.area, self.X, context_scales)
+            scales = tuple(float(t) for t in context_scales)
+            disk = self._cache.get("disk") or ArrayCache(kind="context")
+            ctx = disk.get_or_compute(
+                hash_arrays(self.X, self.area, self.graph.pairs, meta={"context": list(scales), "version": 1}),
+                lambda: diffuse_face_values(self.graph, self.area, self.X, scales),
+                shape=(len(self.X), self.X.shape[1] * len(scales)),
+            )
             self._cache[key] = np.hstack([self.X, ctx])
         return self._cache[key]
 
@@ -112,4 +120,7 @@ def prepare_shape(
     graph = dual_graph(V, F)
     patch = over_segment(graph, num_patches, scribble_labels=scribble if (scribble >= 0).any() else None)
     pairs, _ = patch_adjacency(graph, patch)
-    return ShapeData(mesh, X, face_areas(V, F), graph, patch, pairs, scribble)
+    shape = ShapeData(mesh, X, face_areas(V, F), graph, patch, pairs, scribble)
+    if cache is not None:  # the context cache sits beside the given feature cache
+        shape._cache["disk"] = ArrayCache(cache.folder.parent / f"{cache.folder.name}-context")
+    return shape
