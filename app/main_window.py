@@ -185,6 +185,7 @@ class MainWindow(QMainWindow):
         self.run_max_frame_gap = 0.0  # longest time between two frames during the last run (s)
         self.run_seconds = 0.0
         self._run_started = 0.0
+        self._placed = False
         # Application-wide: one main window, and text fields still take their own keys.
         app_wide = Qt.ShortcutContext.ApplicationShortcut
         self.undo_action = QAction("Undo", self, shortcut=QKeySequence.StandardKey.Undo, triggered=self.model_undo)
@@ -682,6 +683,23 @@ class MainWindow(QMainWindow):
         box = QMessageBox(QMessageBox.Icon.Warning, "scribbleseg", message, parent=self)
         box.setModal(False)
         box.show()
+
+    def showEvent(self, event) -> None:
+        super().showEvent(event)
+        if not self._placed:
+            self._placed = True
+            self.place_beside_viewport()
+
+    def place_beside_viewport(self) -> None:
+        """Polyscope opens its window near the top-left corner and cannot be moved from
+        here: size it to leave room, and put this window to its right."""
+        screen = self.screen().availableGeometry() if self.screen() else None
+        width = int(min(1280, screen.width() - self.width() - 50)) if screen is not None else 0
+        if width < 640:  # too small a screen to share: leave both windows as they are
+            return
+        height = int(min(screen.height() - 60, width * 0.75))
+        self.viewport.set_window_size(width, height)
+        self.move(screen.x() + 20 + width + 10, screen.y())
 
     def closeEvent(self, event) -> None:
         if self._preview_worker is not None:

@@ -40,6 +40,9 @@ class PolyscopeViewport:
         ps.set_allow_headless_backends(True)
         ps.set_program_name("scribbleseg viewport")
         ps.set_open_imgui_window_for_user_callback(False)
+        # the Qt window holds the controls; polyscope's own panels would cover the shape
+        # and take the mouse from the brush
+        ps.set_build_default_gui_panels(False)
         ps.init(backend) if backend else ps.init()
         # The QTimer paces frames; polyscope's own 60 fps cap would silently skip ticks
         # that come early, and the mouse input of those frames with them.
@@ -201,6 +204,9 @@ class PolyscopeViewport:
         """Update the face colors of the shown mesh in place, (m, 3)."""
         if self._ps.has_surface_mesh(STRUCTURE):
             self._ps.get_surface_mesh(STRUCTURE).add_color_quantity(COLORS, colors, defined_on="faces", enabled=True)
+
+    def set_window_size(self, width: int, height: int) -> None:
+        self._ps.set_window_size(int(width), int(height))
 
     def window_size(self) -> tuple[int, int]:
         return tuple(self._ps.get_window_size())
