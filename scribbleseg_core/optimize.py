@@ -50,9 +50,9 @@ class SegmentParams:
         (the 22 signatures diffused over the surface); ``()`` gives the paper's 22 inputs.
     refine : bool
         Run the face-level refinement after convergence: on scribbled shapes the scribble
-        propagation of :mod:`scribbleseg_core.propagate` with the network's
-        log-probabilities (`propagation`), on unseen shapes :func:`refine_labels`
-        (`refinement`).
+        propagation of :mod:`scribbleseg_core.propagate` (`propagation`; strokes and
+        creases, then, with `retrain`, once more with the retrained network), on unseen
+        shapes :func:`refine_labels` (`refinement`).
     retrain : bool
         After the refinement, train the network afresh on the refined face labels (the model
         then used for unseen shapes), and propagate the scribbles once more with its
@@ -174,11 +174,12 @@ def segment_collection(
     # (3a) initial graph cuts without the network term
     if params.init not in ("propagate", "geodesic", "paper"):
         raise ValueError(f"init must be 'propagate', 'geodesic' or 'paper'; got {params.init!r}")
+    propagated = None  # the scribble propagation without the network, made once
     if params.init == "paper":
         U_init = U_scr
     else:
         if params.init == "propagate":
-            guide = [propagate_scribbles(s.graph, s.scribble, k, params=params.propagation) for s in shapes]
+            guide = propagated = [propagate_scribbles(s.graph, s.scribble, k, params=params.propagation) for s in shapes]
         else:
             guide = [nearest_scribble_labels(s.graph, s.scribble) for s in shapes]
         U_init = [U + _guide_unary(s, g, k, w) for U, s, g, w in zip(U_scr, shapes, guide, W)]
@@ -228,7 +229,7 @@ def segment_collection(
         # face level: propagate the scribbles along creases, retrain the network on those
         # cleaner labels, then propagate again with the network's log-probabilities
         t = time.perf_counter()
-        faces = [propagate_scribbles(s.graph, s.scribble, k, params=params.propagation) for s in shapes]
+        faces = propagated or [propagate_scribbles(s.graph, s.scribble, k, params=params.propagation) for s in shapes]
         yield Snapshot(it, "refine", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
         if params.retrain:
             t = time.perf_counter()
