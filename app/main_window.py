@@ -530,7 +530,8 @@ class MainWindow(QMainWindow):
         self.worker.start()
 
     def _set_running(self, on: bool) -> None:
-        for b in (self.run_button, self.predict_button):
+        # label ids must not change under a running worker: its results use the old ones
+        for b in (self.run_button, self.predict_button, self.add_label_button, self.delete_label_button):
             b.setEnabled(not on)
         self.stop_button.setEnabled(on)
         if on:

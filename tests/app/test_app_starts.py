@@ -151,9 +151,11 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
     frames_before = viewport.frames
     w.run_button.click()
     assert not w.run_button.isEnabled() and w.stop_button.isEnabled()
+    assert not w.add_label_button.isEnabled() and not w.delete_label_button.isEnabled()
     qtbot.waitUntil(lambda: w.worker is None, timeout=300_000)
     assert viewport.frames > frames_before + 10  # the window kept rendering during the run
     assert w.run_seconds > 0 and 0 < w.run_max_frame_gap < w.run_seconds
+    assert w.add_label_button.isEnabled() and w.delete_label_button.isEnabled()
     assert "finished in" in w.statusBar().currentMessage()
     states = [e.state for e in w.model.shapes]
     assert states.count("labeled") == 3 and states.count("predicted") == 7
