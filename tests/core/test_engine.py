@@ -132,3 +132,15 @@ def test_patches_never_mix_scribble_labels_and_are_connected(collection):
         G.eliminate_zeros()
         n, _ = connected_components(G, directed=False)
         assert n == s.num_patches
+
+
+def test_retrain_near_keeps_the_faces_nearest_the_strokes(collection):
+    from scribbleseg_core.optimize import _near_strokes
+
+    shapes, gts, _ = collection
+    kept = _near_strokes(shapes[:3], gts[:3], len(LABELS), 0.5)
+    for s, gt, y in zip(shapes, gts, kept):
+        assert 0.45 <= (y >= 0).mean() <= 0.6  # about the nearer half
+        sel = s.scribble >= 0
+        np.testing.assert_array_equal(y[sel], gt[sel])  # strokes are nearest of all
+        np.testing.assert_array_equal(y[y >= 0], gt[y >= 0])  # kept faces keep their label
