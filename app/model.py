@@ -463,11 +463,9 @@ class CollectionModel:
         """Write shape `index`'s scribbles (format v1) into the autosave folder, atomically."""
         if self.autosave_dir is None:
             return None
-        from scribbleseg_core.scribbles import Scribbles, Stroke, write_scribbles
+        from scribbleseg_core.scribbles import Scribbles, write_scribbles
 
         entry = self.shapes[index]
-        labels = self.layer(index).labels
-        strokes = tuple(Stroke(int(lab), np.flatnonzero(labels == lab)) for lab in np.unique(labels[labels >= 0]))
         folder = self.autosave_folder()
         path = folder / f"{entry.name}.json"
         try:
@@ -475,7 +473,7 @@ class CollectionModel:
                 from scribbleseg_core.atomic import atomic_write_text
 
                 atomic_write_text(folder / "collection.txt", f"{self.folder.resolve()}\n")
-            write_scribbles(path, Scribbles(entry.path.name, len(labels), self.label_set.names, strokes))
+            write_scribbles(path, Scribbles.from_face_labels(entry.path.name, self.layer(index).labels, self.label_set.names))
         except OSError as e:  # the edit itself stands; only its safety copy failed
             self.error.emit(f"{path}: autosave failed: {e}")
             return None

@@ -48,6 +48,14 @@ class Scribbles:
     label_names: tuple[str, ...]
     strokes: tuple[Stroke, ...] = field(default_factory=tuple)
 
+    @classmethod
+    def from_face_labels(cls, mesh: str, labels: np.ndarray, label_names) -> Scribbles:
+        """The inverse of :meth:`face_labels`: one stroke per label present in `labels`
+        ((num_faces,) int, -1 unscribbled), in label order."""
+        labels = np.asarray(labels, dtype=np.int64)
+        strokes = tuple(Stroke(int(lab), np.flatnonzero(labels == lab)) for lab in np.unique(labels[labels >= 0]))
+        return cls(mesh, len(labels), tuple(label_names), strokes)
+
     def face_labels(self) -> np.ndarray:
         """Label per file face, -1 where unscribbled; (num_faces,) int64."""
         out = np.full(self.num_faces, -1, np.int64)

@@ -26,7 +26,7 @@ from scribbleseg_core.atomic import atomic_write_text
 from scribbleseg_core.errors import ScribblesegError
 from scribbleseg_core.export import read_seg, write_seg
 from scribbleseg_core.labels import LabelSet
-from scribbleseg_core.scribbles import Scribbles, Stroke, read_scribbles, write_scribbles
+from scribbleseg_core.scribbles import Scribbles, read_scribbles, write_scribbles
 
 FORMAT = "scribbleseg-session"
 VERSION = 1
@@ -105,9 +105,7 @@ def save_session(folder: str | os.PathLike, session: Session) -> Path:
     for shape, stem in zip(session.shapes, stems):
         entry = {"mesh": _portable(shape.mesh, folder), "num_faces": int(shape.num_faces), "state": shape.state, "stem": stem}
         if shape.scribble is not None and (shape.scribble >= 0).any():
-            sc = np.asarray(shape.scribble)
-            strokes = tuple(Stroke(int(lab), np.flatnonzero(sc == lab)) for lab in np.unique(sc[sc >= 0]))
-            write_scribbles(folder / "scribbles" / f"{stem}.json", Scribbles(shape.mesh.name, int(shape.num_faces), names, strokes))
+            write_scribbles(folder / "scribbles" / f"{stem}.json", Scribbles.from_face_labels(shape.mesh.name, shape.scribble, names))
             entry["scribbles"] = f"scribbles/{stem}.json"
         if shape.labels is not None:
             write_seg(folder / "results" / f"{stem}.seg", shape.labels)
