@@ -46,6 +46,13 @@ class DualGraph:
         ang = self.concavity / ang_mean if ang_mean > 0 else np.zeros_like(geo)
         return delta * geo + (1 - delta) * ang + 1e-12
 
+    def crease_potts_weights(self, smoothness: float, crease: float) -> np.ndarray:
+        """Potts weight per face pair, ``smoothness · (ℓ / mean ℓ) · exp(−concavity /
+        crease)``: cutting along a concave crease is cheap, across a smooth or convex
+        region dear; (q,) float64."""
+        ell = self.length / max(self.length.mean(), 1e-300)
+        return smoothness * ell * np.exp(-self.concavity / crease)
+
     @cached_property
     def crease_matrix(self) -> sp.csr_matrix:
         """``matrix(crease_distance())``, built once per graph (patches and the geodesic

@@ -121,6 +121,5 @@ def propagate_scribbles(
         U[~reached] = np.where(np.arange(k) == np.bincount(scribble[s], minlength=k).argmax(), 0.0, 1.0)
     U[s] = INF
     U[s, scribble[s]] = 0.0
-    ell = graph.length / max(graph.length.mean(), 1e-300)
-    w = params.smoothness * ell * np.exp(-graph.concavity / params.crease)
+    w = graph.crease_potts_weights(params.smoothness, params.crease)
     return alpha_expansion(U, graph.pairs, w, init=np.argmin(U, axis=1), max_sweeps=params.max_sweeps)

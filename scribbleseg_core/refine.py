@@ -24,12 +24,6 @@ class RefineParams:
     prior: float = 1.0
 
 
-def crease_weights(graph: DualGraph, params: RefineParams) -> np.ndarray:
-    """Potts weight per face pair, (q,) float64."""
-    ell = graph.length / max(graph.length.mean(), 1e-300)
-    return params.smoothness * ell * np.exp(-graph.concavity / params.crease)
-
-
 def refine_labels(
     graph: DualGraph,
     log_proba: np.ndarray,
@@ -66,4 +60,4 @@ def refine_labels(
         s = np.flatnonzero(scribble >= 0)
         U[s] = INF
         U[s, scribble[s]] = 0.0
-    return alpha_expansion(U, graph.pairs, crease_weights(graph, params), init=patch_labels, max_sweeps=4)
+    return alpha_expansion(U, graph.pairs, graph.crease_potts_weights(params.smoothness, params.crease), init=patch_labels, max_sweeps=4)
