@@ -71,18 +71,17 @@ class PreviewEngine:
         return self._graphs[key][1]
 
     def log_proba(self, mesh: Mesh, model) -> np.ndarray:
-        """The model's face log-probabilities; features come from the cache (computed
-        there on first use)."""
+        """The model's face log-probabilities; features and context come from the disk
+        caches a run filled (computed there on first use)."""
         from scribbleseg_core.cache import cached_face_features
-        from scribbleseg_core.context import diffuse_face_values
         from scribbleseg_core.geometry import face_areas
+        from scribbleseg_core.shape import network_input
 
         scales = tuple(model.params.context_scales)
         key = (id(mesh), scales)
-        if key not in self._inputs:
+        if key not in self._inputs:  # the same input, and disk cache, as the run's
             X = cached_face_features(mesh.V, mesh.F)
-            ctx = diffuse_face_values(self.graph(mesh), face_areas(mesh.normalized(), mesh.F), X, scales)
-            self._inputs[key] = np.hstack([X, ctx])
+            self._inputs[key] = network_input(X, face_areas(mesh.normalized(), mesh.F), self.graph(mesh), scales)
         return model.classifier.log_proba(self._inputs[key])
 
     def compute(self, req: PreviewRequest) -> np.ndarray | None:

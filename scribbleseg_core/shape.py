@@ -42,26 +42,14 @@ class ShapeData:
     patch: np.ndarray
     patch_pairs: np.ndarray
     scribble: np.ndarray
+    context_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def network_input(self, context_scales: tuple[float, ...] = ()) -> np.ndarray:
-        """The classifier's input per face: the 22 signatures, then the same diffused at
-        each of `context_scales` (see :mod:`scribbleseg_core.context`); (m, 22 · (1 + s)).
-        Kept per scales, and on disk (the ``context`` cache beside the features': the
-        sparse factorizations cost 0.1–1 s a shape and hold the interpreter meanwhile)."""
+        """:func:`network_input` of this shape, kept per scales."""
         key = ("input", tuple(context_scales))
         if key not in self._cache:
-            from scribbleseg_core.cache import hash_arrays
-            from scribbleseg_core.context import diffuse_face_values
-
-            scales = tuple(float(t) for t in context_scales)
-            disk = self._cache.get("disk") or ArrayCache(kind="context")
-            ctx = disk.get_or_compute(
-                hash_arrays(self.X, self.area, self.graph.pairs, meta={"context": list(scales), "version": 1}),
-                lambda: diffuse_face_values(self.graph, self.area, self.X, scales),
-                shape=(len(self.X), self.X.shape[1] * len(scales)),
-            )
-            self._cache[key] = np.hstack([self.X, ctx])
+            self._cache[key] = network_input(self.X, self.area, self.graph, context_scales, cache=self.context_cache)
         return self._cache[key]
 
     @property
@@ -85,6 +73,45 @@ class ShapeData:
         """Indicator (p, m): row i sums face values over patch i."""
         m = len(self.patch)
         return sp.csr_matrix((np.ones(m), (self.patch, np.arange(m))), shape=(self.num_patches, m))
+
+
+def network_input(
+    X: np.ndarray,
+    area: np.ndarray,
+    graph: DualGraph,
+    context_scales: tuple[float, ...] = (),
+    *,
+    cache: ArrayCache | None = None,
+) -> np.ndarray:
+    """The classifier's input per face: the 22 signatures, then the same diffused at each
+    of `context_scales` (see :mod:`scribbleseg_core.context`).
+
+    The diffused part is cached on disk (`cache`, default the user cache's ``context``
+    folder): its sparse factorizations cost 0.1–1 s a shape and hold the interpreter
+    meanwhile.
+
+    Parameters
+    ----------
+    X : (m, 22) float64 ndarray
+    area : (m,) float64 ndarray
+        Face areas of the unit-area mesh.
+    graph : DualGraph
+    context_scales : tuple of float
+
+    Returns
+    -------
+    (m, 22 · (1 + len(context_scales))) float64 ndarray
+    """
+    from scribbleseg_core.cache import hash_arrays
+    from scribbleseg_core.context import diffuse_face_values
+
+    scales = tuple(float(t) for t in context_scales)
+    ctx = (cache or ArrayCache(kind="context")).get_or_compute(
+        hash_arrays(X, area, graph.pairs, meta={"context": list(scales), "version": 1}),
+        lambda: diffuse_face_values(graph, area, X, scales),
+        shape=(len(X), X.shape[1] * len(scales)),
+    )
+    return np.hstack([X, ctx])
 
 
 def prepare_shape(
@@ -120,7 +147,6 @@ def prepare_shape(
     graph = dual_graph(V, F)
     patch = over_segment(graph, num_patches, scribble_labels=scribble if (scribble >= 0).any() else None)
     pairs, _ = patch_adjacency(graph, patch)
-    shape = ShapeData(mesh, X, face_areas(V, F), graph, patch, pairs, scribble)
-    if cache is not None:  # the context cache sits beside the given feature cache
-        shape._cache["disk"] = ArrayCache(cache.folder.parent / f"{cache.folder.name}-context")
-    return shape
+    # the context cache sits beside a given feature cache (else the user cache's)
+    context_cache = None if cache is None else ArrayCache(cache.folder.parent / f"{cache.folder.name}-context")
+    return ShapeData(mesh, X, face_areas(V, F), graph, patch, pairs, scribble, context_cache)
