@@ -474,9 +474,7 @@ class MainWindow(QMainWindow):
 
     def run_collection(self) -> None:
         """Segment the scribbled shapes and predict the others, in a worker thread."""
-        from superqt.utils import thread_worker
-
-        from app.runner import LazyMeshes, collection_run, limit_threads
+        from app.runner import LazyMeshes, collection_run
 
         m = self.model
         usable = [i for i, e in enumerate(m.shapes) if e.state != "error"]
@@ -484,26 +482,15 @@ class MainWindow(QMainWindow):
         if not any(s is not None and (s >= 0).any() for s in scribbles):
             self._on_error("paint at least one stroke before segmenting")
             return
-        limit_threads(1)
-        meshes = LazyMeshes([m.shapes[i].mesh for i in usable])  # loaded by the worker
-        self._run_indices = usable
         self.energy_plot.clear()
-        self.progress.setRange(0, len(usable))
-        self.progress.setValue(0)
-        self.worker = thread_worker(collection_run, start_thread=False)(meshes, scribbles, m.label_set.names)
-        self.worker.yielded.connect(self._on_run_message)
-        self.worker.errored.connect(lambda e: self._on_error(f"segmentation failed: {e}"))
-        self.worker.finished.connect(self._on_run_finished)
-        self._set_running(True)
-        self.statusBar().showMessage("computing shape signatures…")
-        self.worker.start()
+        meshes = LazyMeshes([m.shapes[i].mesh for i in usable])  # loaded by the worker
+        self._start_worker(collection_run, (meshes, scribbles, m.label_set.names), usable,
+                           "segmentation", "computing shape signatures…")
 
     def predict_unlabeled(self) -> None:
         """Segment the shapes with neither scribbles nor a result (e.g. meshes added after
         the run) with the trained network, in a worker thread."""
-        from superqt.utils import thread_worker
-
-        from app.runner import LazyMeshes, limit_threads, predict_run
+        from app.runner import LazyMeshes, predict_run
 
         m = self.model
         if m.trained_model is None:
@@ -516,17 +503,26 @@ class MainWindow(QMainWindow):
         if not targets:
             self.statusBar().showMessage("every shape already has scribbles or a result")
             return
-        limit_threads(1)
-        self._run_indices = targets
-        self.progress.setRange(0, len(targets))
-        self.progress.setValue(0)
         meshes = LazyMeshes([m.shapes[i].mesh for i in targets])
-        self.worker = thread_worker(predict_run, start_thread=False)(m.trained_model, meshes)
+        self._start_worker(predict_run, (m.trained_model, meshes), targets, "prediction", f"predicting {len(targets)} shapes…")
+
+    def _start_worker(self, generator, args: tuple, indices: list[int], what: str, status: str) -> None:
+        """Run `generator(*args)` in a worker thread; its messages (about the shapes
+        `indices`, in order) land in :meth:`_on_run_message` on this thread."""
+        from superqt.utils import thread_worker
+
+        from app.runner import limit_threads
+
+        limit_threads(1)
+        self._run_indices = indices
+        self.progress.setRange(0, len(indices))
+        self.progress.setValue(0)
+        self.worker = thread_worker(generator, start_thread=False)(*args)
         self.worker.yielded.connect(self._on_run_message)
-        self.worker.errored.connect(lambda e: self._on_error(f"prediction failed: {e}"))
+        self.worker.errored.connect(lambda e: self._on_error(f"{what} failed: {e}"))
         self.worker.finished.connect(self._on_run_finished)
         self._set_running(True)
-        self.statusBar().showMessage(f"predicting {len(targets)} shapes…")
+        self.statusBar().showMessage(status)
         self.worker.start()
 
     def _set_running(self, on: bool) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,8 +116,6 @@ class PolyscopeViewport:
         self._handle_hover(inp)
 
     def _handle_hover(self, inp: _MouseInput) -> None:
-        import time
-
         if self._hover_handler is None or self._painting or any(inp.down) or inp.captured:
             return
         if inp.delta == (0.0, 0.0) or time.perf_counter() - self._last_hover < 0.1:
