@@ -143,6 +143,14 @@ def _cmd_bench(args) -> int:
     return 0 if report["verified"] else 1
 
 
+def _cmd_bench_merge(args) -> int:
+    from scribbleseg_core.bench.report import merge_reports
+
+    report = merge_reports(Path(args.data), [Path(p) for p in args.parts], Path(args.out))
+    print((Path(args.out) / "report.md").read_text())
+    return 0 if report["verified"] else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="scribbleseg", description="Scribble-based segmentation of 3D shape collections."
@@ -186,6 +194,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("bench-merge", help="merge benchmark reports run apart (e.g. one per core, by categories)")
+    p.add_argument("data", help="the benchmark data the parts were run on")
+    p.add_argument("parts", nargs="+", help="output folders of 'scribbleseg bench'")
+    p.add_argument("--out", required=True)
+    p.set_defaults(func=_cmd_bench_merge)
     return parser
 
 

@@ -203,6 +203,12 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
                 entry[group] = {"summary": summary, "shapes": rows}
         entry["peak_memory_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         report["categories"][cat] = entry
+    return finish_report(root, out, report)
+
+
+def finish_report(root: Path, out: Path, report: dict) -> dict:
+    """Verify `report` against the .seg files in `out`, average it over categories, and write
+    ``report.json``, ``report.md`` and ``chart.png`` into `out`; returns the report."""
     report["verified"] = verify(root, out, report)
     report["average"] = {key: {m: float(np.nanmean([c[key]["summary"].get(m, np.nan) for c in report["categories"].values() if key in c]))
                                for m in ("ri_error", "ri_error_human", "ri_error_patch", "seconds_per_shape")}
@@ -212,6 +218,53 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
     (out / "report.md").write_text(markdown(report, root))
     chart(report, root, out / "chart.png")
     return report
+
+
+def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
+    """One report from benchmarks run apart (say one per core, over different categories).
+
+    Every part must have been run with the same settings; a category in several parts is
+    refused. The parts' ``.seg`` files are copied into `out` and every error is verified
+    again from them.
+
+    Parameters
+    ----------
+    root : Path
+        The benchmark data the parts were run on.
+    parts : list of Path
+        Output folders of ``scribbleseg bench``.
+    out : Path
+        Where the merged report goes (may not be one of `parts`).
+    """
+    import shutil
+
+    from scribbleseg_core.errors import ScribblesegError
+
+    out = Path(out)
+    if any(out.resolve() == Path(p).resolve() for p in parts):
+        raise ScribblesegError(f"{out}: the merged report cannot go into one of its parts")
+    merged = None
+    for part in map(Path, parts):
+        path = part / "report.json"
+        try:
+            rep = json.loads(path.read_text())
+            settings, categories = rep["settings"], rep["categories"]
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            raise ScribblesegError(f"{path}: not a benchmark report ({e})") from None
+        if merged is None:
+            merged = {"settings": settings, "categories": {}}
+        elif settings != merged["settings"]:
+            raise ScribblesegError(f"{path}: run with other settings than {parts[0]}: {settings} vs {merged['settings']}")
+        for cat, entry in categories.items():
+            if cat in merged["categories"]:
+                raise ScribblesegError(f"{path}: category {cat} is in more than one part")
+            merged["categories"][cat] = entry
+            if (part / cat).is_dir():
+                shutil.copytree(part / cat, out / cat, dirs_exist_ok=True)
+    if merged is None:
+        raise ScribblesegError("no reports to merge")
+    merged["categories"] = dict(sorted(merged["categories"].items()))
+    return finish_report(root, out, merged)
 
 
 def verify(root: Path, out: Path, report: dict) -> bool:

@@ -76,3 +76,32 @@ def test_keep_coverage_keeps_the_middle_of_every_stroke():
     np.testing.assert_array_equal(cut.strokes[0].faces, [3, 4, 5, 6])
     assert len(cut.strokes[1].faces) == 1
     assert keep_coverage(scr, 1.0) is scr
+
+
+def test_reports_run_apart_merge_into_one(tmp_path, planted_root):
+    import shutil
+
+    from scribbleseg_core.bench.report import merge_reports
+    from scribbleseg_core.errors import ScribblesegError
+
+    root = tmp_path / "psb"
+    shutil.copytree(planted_root, root)
+    shutil.copytree(root / "Planted", root / "Second")
+    a = bench(root, tmp_path / "a", modes=("train",), cats=["Planted"], params=FAST)
+    b = bench(root, tmp_path / "b", modes=("train",), cats=["Second"], params=FAST)
+    merged = merge_reports(root, [tmp_path / "a", tmp_path / "b"], tmp_path / "m")
+    assert list(merged["categories"]) == ["Planted", "Second"]
+    assert merged["verified"] is True
+    want = np.mean([r["categories"][c]["train"]["summary"]["ri_error"] for r, c in ((a, "Planted"), (b, "Second"))])
+    assert merged["average"]["train"]["ri_error"] == pytest.approx(want)
+    assert (tmp_path / "m" / "Second" / "train" / "1.seg").is_file()
+    assert "| Second |" in (tmp_path / "m" / "report.md").read_text()
+    with pytest.raises(ScribblesegError, match="more than one part"):
+        merge_reports(root, [tmp_path / "a", tmp_path / "a"], tmp_path / "m2")
+    bench(root, tmp_path / "c", modes=("train",), cats=["Second"], folds=3, params=FAST)
+    with pytest.raises(ScribblesegError, match="other settings"):
+        merge_reports(root, [tmp_path / "a", tmp_path / "c"], tmp_path / "m3")
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "report.json").write_text("{")
+    with pytest.raises(ScribblesegError, match="not a benchmark report"):
+        merge_reports(root, [tmp_path / "a", tmp_path / "bad"], tmp_path / "m4")
