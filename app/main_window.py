@@ -181,6 +181,7 @@ class MainWindow(QMainWindow):
         self._features: dict[tuple[int, int], np.ndarray] = {}
         self._features_pending: set[int] = set()
         self._collection_generation = 0
+        self._quitting = False  # set once the user chose to quit (skips the unsaved-work question)
         self._last_frame: float | None = None
         self.run_max_frame_gap = 0.0  # longest time between two frames during the last run (s)
         self.run_seconds = 0.0
@@ -230,6 +231,7 @@ class MainWindow(QMainWindow):
         self.stop_button.clicked.connect(self.stop_run)
         self.export_button.clicked.connect(self._on_export)
         m.collection_changed.connect(self._on_collection_changed)
+        m.unsaved_changed.connect(lambda _unsaved: self._update_title())
         m.current_changed.connect(self._on_current_changed)
         m.labels_changed.connect(self._on_labels_changed)
         m.scribbles_changed.connect(self._on_scribbles_changed)
@@ -572,17 +574,44 @@ class MainWindow(QMainWindow):
     def _update_title(self) -> None:
         m = self.model
         where = m.session_path or m.folder
-        self.setWindowTitle(f"scribbleseg {__version__}" + (f" — {where.name}" if where else ""))
+        self.setWindowTitle(f"scribbleseg {__version__}" + (f" — {where.name}" if where else "") + (" *" if m.unsaved else ""))
 
     def _on_open_collection(self) -> None:
+        if not self.keep_unsaved_work():
+            return
         folder = QFileDialog.getExistingDirectory(self, "Open a folder of meshes")
         if folder:
             self.model.open(folder)
 
     def _on_open_session(self) -> None:
+        if not self.keep_unsaved_work():
+            return
         folder = QFileDialog.getExistingDirectory(self, "Open a session folder")
         if folder:
             self.model.open_session(folder)
+
+    def keep_unsaved_work(self, *, can_cancel: bool = True) -> bool:
+        """Before the collection goes away: offer to save a session if there are unsaved
+        changes. Returns False if the user cancelled (or the save failed): stay."""
+        if not self.model.unsaved or not self.model.shapes:
+            return True
+        answer = self._ask_unsaved(can_cancel)
+        if answer == "save":
+            return self.save_session() or not can_cancel
+        return answer == "discard"
+
+    def _ask_unsaved(self, can_cancel: bool) -> str:
+        """'save', 'discard' or 'cancel' (tests replace this)."""
+        buttons = QMessageBox.StandardButton.Save | QMessageBox.StandardButton.Discard
+        if can_cancel:
+            buttons |= QMessageBox.StandardButton.Cancel
+        answer = QMessageBox.question(
+            self, "Unsaved changes",
+            "Save the results, labels and scribbles as a session?\n(Scribbles are autosaved either way "
+            "and offered again when this collection is opened; results and label changes are not.)",
+            buttons, QMessageBox.StandardButton.Save,
+        )
+        return {QMessageBox.StandardButton.Save: "save", QMessageBox.StandardButton.Discard: "discard"}.get(answer, "cancel")
 
     def _on_add_meshes(self) -> None:
         paths, _ = QFileDialog.getOpenFileNames(self, "Add meshes", "", "Meshes (*.off *.obj *.ply *.stl *.glb *.gltf)")
@@ -699,6 +728,9 @@ class MainWindow(QMainWindow):
         self.move(screen.x() + 20 + width + 10, screen.y())
 
     def closeEvent(self, event) -> None:
+        if not self._quitting and not self.keep_unsaved_work():
+            event.ignore()
+            return
         if self._preview_worker is not None:
             self._preview_worker.close()
         if self.worker is not None:
@@ -714,4 +746,6 @@ class MainWindow(QMainWindow):
             self._viewport.tick()
             if self._viewport.close_requested:  # closing the viewport window quits the app
                 self.timer.stop()
+                self.keep_unsaved_work(can_cancel=False)  # polyscope cannot take the close back
+                self._quitting = True
                 self.close()

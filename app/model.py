@@ -67,6 +67,9 @@ class CollectionModel:
     restore_available(count)
         After opening: autosaved scribbles of `count` shapes differ from the opened ones
         (the app crashed or closed before a save); see :meth:`restore_autosave`.
+    unsaved_changed(unsaved)
+        The collection now has (True) or no longer has (False) changes not saved to a
+        session: scribbles, labels, results, added meshes.
     """
 
     def __init__(self, autosave_dir: str | os.PathLike | None = None) -> None:
@@ -92,6 +95,19 @@ class CollectionModel:
         self.labels_changed = Event()
         self.state_changed = Event()
         self.edit_committed = Event()
+        self.unsaved_changed = Event()
+        self._unsaved = False
+
+    @property
+    def unsaved(self) -> bool:
+        """Changes since the collection was opened or last saved as a session (scribbles
+        are autosaved regardless; results, labels and added meshes are not)."""
+        return self._unsaved
+
+    def _set_unsaved(self, value: bool) -> None:
+        if value != self._unsaved:
+            self._unsaved = value
+            self.unsaved_changed.emit(value)
 
     def open(self, path: str | os.PathLike) -> None:
         """Open a saved session, a folder of meshes (with scribble files beside them or in
@@ -127,6 +143,7 @@ class CollectionModel:
         self.label_set = label_set
         self.trained_model = model
         self.current = -1
+        self._set_unsaved(False)
         self.collection_changed.emit()
         if shapes:
             self.set_current(current)
@@ -153,6 +170,7 @@ class CollectionModel:
         if added:
             if self.folder is None:
                 self.folder = Path(paths[0]).resolve().parent
+            self._set_unsaved(True)
             self.shapes_added.emit(added)
         return added
 
@@ -163,6 +181,7 @@ class CollectionModel:
         entry.preview = None  # the result is newer
         if entry.state != state:
             entry.state = state
+        self._set_unsaved(True)
         self.state_changed.emit(index)
         if index == self.current:
             self.scribbles_changed.emit(index, np.zeros(0, np.int64))
@@ -209,6 +228,7 @@ class CollectionModel:
         current = max(0, self.current - sum(1 for e in self.shapes[: max(self.current, 0)] if e.state == "error"))
         save_session(folder, Session(self.label_set, shapes, current, self.trained_model))
         self.session_path = Path(folder)
+        self._set_unsaved(False)
         return skipped
 
     # ------------------------------------------------------------------ autosave
@@ -327,6 +347,7 @@ class CollectionModel:
 
         k = len(self.label_set)
         self.label_set = LabelSet.from_names([*self.label_set.names, name], np.vstack([self.label_set.colors.reshape(-1, 3), default_color(k)]))
+        self._set_unsaved(True)
         self.labels_changed.emit()
         return k
 
@@ -337,12 +358,14 @@ class CollectionModel:
             raise ValueError(f"label name {name!r} is empty or already used")
         names[label] = name
         self.label_set = LabelSet.from_names(names, self.label_set.colors)
+        self._set_unsaved(True)
         self.labels_changed.emit()
 
     def recolor_label(self, label: int, rgb) -> None:
         colors = self.label_set.colors.copy()
         colors[label] = rgb
         self.label_set = LabelSet.from_names(self.label_set.names, colors)
+        self._set_unsaved(True)
         self.labels_changed.emit()
         if self.current >= 0:
             self.scribbles_changed.emit(self.current, np.zeros(0, np.int64))
@@ -380,6 +403,7 @@ class CollectionModel:
         keep = [j for j in range(len(self.label_set)) if j != label]
         self.label_set = LabelSet.from_names([self.label_set.names[j] for j in keep], self.label_set.colors[keep])
         self.trained_model = None
+        self._set_unsaved(True)
         if self.current_label >= len(self.label_set) or self.current_label == label:
             self.current_label = 0 if len(self.label_set) else -1
         self.labels_changed.emit()
@@ -440,6 +464,7 @@ class CollectionModel:
             self._after_edit(self.current)
 
     def _after_edit(self, index: int) -> None:
+        self._set_unsaved(True)
         self._refresh_state(index)
         self.autosave(index)
         self.edit_committed.emit(index)

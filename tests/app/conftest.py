@@ -11,3 +11,14 @@ def viewport():
     from app.viewport import PolyscopeViewport
 
     return PolyscopeViewport("openGL3_egl")
+
+
+@pytest.fixture(autouse=True)
+def _unsaved_work_is_discarded(monkeypatch):
+    """Closing a window with unsaved work asks a modal question; tests answer 'discard'
+    (a test of the question itself replaces the answer)."""
+    try:
+        from app.main_window import MainWindow
+    except ImportError:  # no Qt: the model tests still run
+        return
+    monkeypatch.setattr(MainWindow, "_ask_unsaved", lambda self, can_cancel: "discard")

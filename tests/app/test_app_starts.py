@@ -253,3 +253,38 @@ def test_delete_label_erases_its_scribbles_and_shifts_ids(qtbot, viewport, tmp_p
     assert w.model.label_set.names == ("body", "leg", "tail") and w.label_list.count() == 3
     after = w.model.layer(0).labels
     assert (after[before == 1] == -1).all() and (after[before == 2] == 1).all() and (after[before == 0] == 0).all()
+
+
+def test_quitting_with_unsaved_work_offers_to_save_a_session(qtbot, viewport, tmp_path, monkeypatch):
+    from PySide6.QtWidgets import QFileDialog
+
+    from app.main_window import MainWindow
+    from scribbleseg_core.session import load_session
+
+    w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
+    qtbot.addWidget(w)
+    w.show()
+    assert not w.model.unsaved and not w.windowTitle().endswith("*")
+    w.close()  # nothing changed: no question
+    assert not w.isVisible()
+    w.show()
+    layer = w.model.layer(1)
+    layer.begin()
+    layer.paint(np.arange(25), 2)
+    layer.end()
+    w.model._after_edit(1)
+    assert w.model.unsaved and w.windowTitle().endswith(" *")
+    answers = ["cancel"]
+    monkeypatch.setattr(MainWindow, "_ask_unsaved", lambda self, can_cancel: answers.pop(0))
+    w.close()
+    assert w.isVisible()  # cancelled: still open, nothing lost
+    answers.append("save")
+    monkeypatch.setattr(QFileDialog, "getExistingDirectory", staticmethod(lambda *a, **k: ""))
+    w.close()
+    assert w.isVisible()  # the save dialog was cancelled: stay
+    answers.append("save")
+    monkeypatch.setattr(QFileDialog, "getExistingDirectory", staticmethod(lambda *a, **k: str(tmp_path / "session")))
+    w.close()
+    assert not w.isVisible() and not w.model.unsaved
+    saved = load_session(tmp_path / "session")
+    np.testing.assert_array_equal(saved.shapes[1].scribble[:25], 2)
