@@ -57,3 +57,30 @@ def test_bad_input_is_refused(planted):
         propagate_scribbles(graph, scribble, 2)
     with pytest.raises(ValueError, match="shape"):
         propagate_scribbles(graph, scribble[:-1], len(LABELS))
+
+
+def _strip(nx: int = 40, ny: int = 6):
+    """A flat strip of nx × ny unit squares (two triangles each): no creases anywhere."""
+    xs, ys = np.meshgrid(np.arange(nx + 1), np.arange(ny + 1), indexing="ij")
+    V = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)]).astype(float)
+    idx = lambda i, j: i * (ny + 1) + j  # noqa: E731
+    F = []
+    for i in range(nx):
+        for j in range(ny):
+            F += [[idx(i, j), idx(i + 1, j), idx(i + 1, j + 1)], [idx(i, j), idx(i + 1, j + 1), idx(i, j + 1)]]
+    F = np.array(F)
+    return V, F, V[F].mean(axis=1)[:, 0]
+
+
+def test_contrast_moves_a_crease_free_boundary_to_where_the_sdf_jumps():
+    V, F, x = _strip()
+    graph = dual_graph(V, F)
+    scribble = np.where(x < 2, 0, np.where(x > 38, 1, -1))
+    sdf = np.where(x < 12, 1.0, 0.2)  # a thick part meets a thin one at x = 12
+    plain = propagate_scribbles(graph, scribble, 2, sdf=sdf)  # contrast 0 by default: ignored
+    between = (x > 13) & (x < 19)
+    assert (plain[between] == 0).all()  # the boundary sits midway between the strokes
+    labels = propagate_scribbles(graph, scribble, 2, sdf=sdf, params=PropagateParams(contrast=1.0, contrast_floor=0.1))
+    assert (labels[between] == 1).all() and (labels[x < 11] == 0).all()
+    with pytest.raises(ValueError, match="shape"):
+        propagate_scribbles(graph, scribble, 2, sdf=sdf[:-1], params=PropagateParams(contrast=1.0))
