@@ -17,7 +17,7 @@ import numpy as np
 
 from scribbleseg_core.dual_graph import DualGraph, dual_graph
 from scribbleseg_core.mesh_io import Mesh
-from scribbleseg_core.propagate import propagate_scribbles
+from scribbleseg_core.propagate import PropagateParams, propagate_scribbles
 
 
 @dataclass(frozen=True)
@@ -91,8 +91,19 @@ class PreviewEngine:
         if not (scribble >= 0).any():
             return None
         logp = self.log_proba(mesh, req.model) if req.model is not None else None
-        labels = propagate_scribbles(self.graph(mesh), scribble, req.num_labels, log_proba=logp)
+        params = req.model.params.propagation if req.model is not None else PropagateParams()
+        sdf = self.sdf(mesh) if params.contrast > 0 else None
+        labels = propagate_scribbles(self.graph(mesh), scribble, req.num_labels, log_proba=logp, sdf=sdf, params=params)
         return mesh.labels_to_file(labels)
+
+    def sdf(self, mesh: Mesh) -> np.ndarray | None:
+        """The shape diameter per face if the signatures are already cached (after a run, or
+        shown as colors), else None: the preview never waits for them, and propagates
+        without the SDF contrast until they exist."""
+        from scribbleseg_core.cache import cached_face_features
+
+        X = cached_face_features(mesh.V, mesh.F, compute=False)
+        return None if X is None else X[:, 1]
 
 
 class PreviewWorker:

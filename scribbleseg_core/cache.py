@@ -87,6 +87,10 @@ class ArrayCache:
             pass  # a read-only or full cache folder costs speed, never results
         return value
 
+    def get(self, key: str, *, shape: tuple | None = None) -> np.ndarray | None:
+        """The cached array for `key`, or None (nothing computed)."""
+        return self._load(key, shape)
+
     def _load(self, key: str, shape) -> np.ndarray | None:
         path = self.path(key)
         if not path.is_file():
@@ -105,12 +109,14 @@ class ArrayCache:
         return value
 
 
-def cached_face_features(V, F, params=None, *, cache: ArrayCache | None = None) -> np.ndarray:
+def cached_face_features(V, F, params=None, *, cache: ArrayCache | None = None, compute: bool = True) -> np.ndarray | None:
     """:func:`scribbleseg_core.features.face_features`, cached on disk.
+
+    With ``compute=False`` only the cache is read: None when the features were never computed.
 
     Returns
     -------
-    X : (m, 22) float64 ndarray
+    X : (m, 22) float64 ndarray, or None
     """
     from scribbleseg_core.features import NUM_FEATURES, FeatureParams, face_features, params_key
 
@@ -119,4 +125,6 @@ def cached_face_features(V, F, params=None, *, cache: ArrayCache | None = None) 
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     key = hash_arrays(V, F, meta=params_key(params))
+    if not compute:
+        return cache.get(key, shape=(F.shape[0], NUM_FEATURES))
     return cache.get_or_compute(key, lambda: face_features(V, F, params), shape=(F.shape[0], NUM_FEATURES))

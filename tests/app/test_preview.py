@@ -72,3 +72,15 @@ def test_a_failing_preview_is_reported_not_raised():
     finally:
         worker.close()
     assert got[0].file_labels is None and "preview failed" in got[0].error and mesh.name in got[0].error
+
+
+def test_the_sdf_for_the_contrast_term_comes_only_from_the_cache(tmp_path, monkeypatch):
+    from scribbleseg_core.cache import cached_face_features
+
+    monkeypatch.setenv("SCRIBBLESEG_CACHE_DIR", str(tmp_path))
+    mesh, _ = creature(1.6, 0.9, seed=2)
+    engine = PreviewEngine()
+    assert engine.sdf(mesh) is None  # never computed: the preview does not wait for it
+    assert not list(tmp_path.rglob("*.npz"))
+    X = cached_face_features(mesh.V, mesh.F)  # what a run (or "show feature") leaves behind
+    np.testing.assert_array_equal(engine.sdf(mesh), X[:, 1])
