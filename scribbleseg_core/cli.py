@@ -136,7 +136,7 @@ def _cmd_bench(args) -> int:
 
     base = SegmentParams()
     params = replace(base, network=replace(base.network, threads=args.threads),
-                     propagation=replace(base.propagation, contrast=args.contrast))
+                     propagation=base.propagation if args.contrast is None else replace(base.propagation, contrast=args.contrast))
     report = bench(root, Path(args.out), modes=modes, cats=args.categories, folds=args.folds,
                    scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed,
                    params=params, progress=progress)
@@ -192,8 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="face-level refinement (--no-refine: the paper's patch-level result)")
     p.add_argument("--seed", type=int, default=0, help="scribbled mode: which shapes keep scribbles")
     p.add_argument("--threads", type=int, default=2, help="torch threads for training (1 when running two benchmarks at once)")
-    p.add_argument("--contrast", type=float, default=0.0,
-                   help="experimental: SDF contrast of the scribble propagation (PropagateParams.contrast; 0 = off)")
+    p.add_argument("--contrast", type=float, default=None,
+                   help="SDF contrast of the scribble propagation (default PropagateParams.contrast; 0 = off)")
     p.add_argument("--out", required=True)
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_bench)
