@@ -40,23 +40,23 @@ class PropagateParams:
     0.2 (Plier 0.077 → 0.059, Glasses 0.058 → 0.046, FourLeg 0.114 → 0.108, Bust 0.138 →
     0.141); a second round did not help.
 
-    ``contrast`` (off by default) makes the smoothness cheaper where the shape diameter
-    changes (a limb meeting a torso with no crease between them): each edge's weight is
-    multiplied by ``floor + (1 − floor) · exp(−contrast · Δ² / mean Δ²)``, Δ the difference
-    of the two faces' standardized SDF, ``floor`` = ``contrast_floor``. Measured on PSB (fit
-    on the same 12 categories, not held out) with contrast 1 and floor 0.5: scribbled shapes
-    without the network 0.064 → 0.061 (Bird 0.083 → 0.076, FourLeg 0.114 → 0.099, Glasses
-    0.058 → 0.046; Vase 0.072 → 0.082 worse), and a network trained on these labels does
-    better on unseen shapes in 9 of 12 categories, 0.110 → 0.106 (Plier 0.070 → 0.053,
-    Glasses 0.053 → 0.041, Human 0.093 → 0.086; Mech 0.137 → 0.145 worse). Not yet the
-    default: the full benchmark has not been rerun with it.
+    ``contrast`` makes the smoothness cheaper where the shape diameter changes (a limb
+    meeting a torso with no crease between them): each edge's weight is multiplied by
+    ``floor + (1 − floor) · exp(−contrast · Δ² / mean Δ²)``, Δ the difference of the two
+    faces' standardized SDF, ``floor`` = ``contrast_floor``; it acts only when the caller
+    passes the SDF. Contrast 1 with floor 0.5 was the best of 8 settings (SDF alone beat all
+    22 signatures; no floor was worse), chosen on the same 12 categories. Full PSB benchmark
+    against contrast 0: scribbled shapes 0.060 → 0.057 (FourLeg 0.108 → 0.095, Plier 0.059 →
+    0.044; Vase 0.071 → 0.083 worse), unseen shapes 0.110 → 0.105 (better on 9 of 12:
+    Plier 0.070 → 0.053, Glasses 0.053 → 0.041; Mech 0.137 → 0.145 worse), because the
+    network carries over better from these training labels.
     """
 
     distance: float = 0.1
     smoothness: float = 16.0
     crease: float = 0.03
     network: float = 0.5
-    contrast: float = 0.0
+    contrast: float = 1.0
     contrast_floor: float = 0.5
     max_sweeps: int = 4
 

@@ -77,7 +77,7 @@ def test_contrast_moves_a_crease_free_boundary_to_where_the_sdf_jumps():
     graph = dual_graph(V, F)
     scribble = np.where(x < 2, 0, np.where(x > 38, 1, -1))
     sdf = np.where(x < 12, 1.0, 0.2)  # a thick part meets a thin one at x = 12
-    plain = propagate_scribbles(graph, scribble, 2, sdf=sdf)  # contrast 0 by default: ignored
+    plain = propagate_scribbles(graph, scribble, 2, sdf=sdf, params=PropagateParams(contrast=0.0))
     between = (x > 13) & (x < 19)
     assert (plain[between] == 0).all()  # the boundary sits midway between the strokes
     labels = propagate_scribbles(graph, scribble, 2, sdf=sdf, params=PropagateParams(contrast=1.0, contrast_floor=0.1))
