@@ -101,9 +101,10 @@ class PreviewEngine:
         shown as colors), else None: the preview never waits for them, and propagates
         without the SDF contrast until they exist."""
         from scribbleseg_core.cache import cached_face_features
+        from scribbleseg_core.features import SDF_COLUMN
 
         X = cached_face_features(mesh.V, mesh.F, compute=False)
-        return None if X is None else X[:, 1]
+        return None if X is None else X[:, SDF_COLUMN]
 
 
 class PreviewWorker:

@@ -33,6 +33,7 @@ FEATURE_VERSION = 1
 
 FEATURE_NAMES: tuple[str, ...] = ("agd", "sdf", "gauss", *(f"sihks_{i}" for i in range(19)))
 NUM_FEATURES = len(FEATURE_NAMES)
+SDF_COLUMN = FEATURE_NAMES.index("sdf")
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from scribbleseg_core.energy import (
 from scribbleseg_core.graphcut import alpha_expansion
 from scribbleseg_core.network import FaceClassifier, NetworkParams
 from scribbleseg_core.patches import nearest_scribble_labels
-from scribbleseg_core.propagate import PropagateParams, propagate_scribbles, scribble_distances
+from scribbleseg_core.propagate import PropagateParams, scribble_distances
 from scribbleseg_core.patch_features import PatchEncoder, feature_delta, fit_patch_encoder
 from scribbleseg_core.refine import RefineParams, refine_labels
 from scribbleseg_core.shape import ShapeData
@@ -185,7 +185,7 @@ def segment_collection(
         U_init = U_scr
     else:
         if params.init == "propagate":
-            guide = propagated = [_propagate(s, k, params.propagation) for s in shapes]
+            guide = propagated = [s.propagate(k, params.propagation) for s in shapes]
         else:
             guide = [nearest_scribble_labels(s.graph, s.scribble) for s in shapes]
         U_init = [U + _guide_unary(s, g, k, w) for U, s, g, w in zip(U_scr, shapes, guide, W)]
@@ -235,20 +235,15 @@ def segment_collection(
         # face level: propagate the scribbles along creases, retrain the network on those
         # cleaner labels, then propagate again with the network's log-probabilities
         t = time.perf_counter()
-        faces = propagated or [_propagate(s, k, params.propagation) for s in shapes]
+        faces = propagated or [s.propagate(k, params.propagation) for s in shapes]
         yield Snapshot(it, "refine", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
         if params.retrain:
             t = time.perf_counter()
             clf.fit(inputs, faces if params.retrain_near is None else _near_strokes(shapes, faces, k, params.retrain_near))
             if params.propagation.network > 0:
-                faces = [_propagate(s, k, params.propagation, clf.log_proba(x)) for s, x in zip(shapes, inputs)]
+                faces = [s.propagate(k, params.propagation, clf.log_proba(x)) for s, x in zip(shapes, inputs)]
             yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
     yield Snapshot(it, "done", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t0, model)
-
-
-def _propagate(shape: ShapeData, k: int, params: PropagateParams, log_proba=None) -> np.ndarray:
-    """:func:`propagate_scribbles` of one shape (its SDF column for the contrast term)."""
-    return propagate_scribbles(shape.graph, shape.scribble, k, log_proba=log_proba, sdf=shape.X[:, 1], params=params)
 
 
 def _near_strokes(shapes, faces, k: int, quantile: float) -> list[np.ndarray]:

@@ -9,10 +9,11 @@ import scipy.sparse as sp
 
 from scribbleseg_core.cache import ArrayCache, cached_face_features
 from scribbleseg_core.dual_graph import DualGraph, dual_graph
-from scribbleseg_core.features import FeatureParams
+from scribbleseg_core.features import SDF_COLUMN, FeatureParams
 from scribbleseg_core.geometry import face_areas
 from scribbleseg_core.mesh_io import Mesh
 from scribbleseg_core.patches import over_segment, patch_adjacency
+from scribbleseg_core.propagate import PropagateParams, propagate_scribbles
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +52,11 @@ class ShapeData:
         if key not in self._cache:
             self._cache[key] = network_input(self.X, self.area, self.graph, context_scales, cache=self.context_cache)
         return self._cache[key]
+
+    def propagate(self, k: int, params: PropagateParams = PropagateParams(), log_proba: np.ndarray | None = None) -> np.ndarray:
+        """:func:`propagate_scribbles` of this shape's scribbles, with its SDF for the
+        contrast term; (m,) int64 face labels."""
+        return propagate_scribbles(self.graph, self.scribble, k, log_proba=log_proba, sdf=self.X[:, SDF_COLUMN], params=params)
 
     @property
     def name(self) -> str:

@@ -30,7 +30,6 @@ from scribbleseg_core.metrics import rand_index_error  # noqa: E402
 from scribbleseg_core.network import FaceClassifier  # noqa: E402
 from scribbleseg_core.optimize import SegmentParams, TrainedModel, predict_shape  # noqa: E402
 from scribbleseg_core.patch_features import feature_delta, fit_patch_encoder  # noqa: E402
-from scribbleseg_core.propagate import propagate_scribbles  # noqa: E402
 from scribbleseg_core.psb import categories  # noqa: E402
 from scribbleseg_core.shape import prepare_shape  # noqa: E402
 
@@ -42,7 +41,7 @@ def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5) -
     shapes = [prepare_shape(it.mesh, it.scribbles.face_labels()) for it in items]
     inputs = [s.network_input(params.context_scales) for s in shapes]
     train_labels = {
-        "propagated": [propagate_scribbles(s.graph, s.scribble, k, params=params.propagation) for s in shapes],
+        "propagated": [s.propagate(k, params.propagation) for s in shapes],  # as the engine does
         "truth": [np.asarray(it.truth)[it.mesh.proc_to_file] for it in items],
     }
     fold_of = np.arange(n) * folds // n
