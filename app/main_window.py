@@ -200,6 +200,7 @@ class MainWindow(QMainWindow):
             ("Save session as…", QKeySequence.StandardKey.SaveAs, self._on_save_session_as),
             ("Export current shape…", None, self._on_export_current),
             ("Export all…", None, self._on_export),
+            ("Quit", QKeySequence.StandardKey.Quit, self.close),  # asks about unsaved work first
         ):
             action = QAction(text, self, triggered=slot)
             if key is not None:

@@ -284,7 +284,8 @@ def test_quitting_with_unsaved_work_offers_to_save_a_session(qtbot, viewport, tm
     assert w.isVisible()  # the save dialog was cancelled: stay
     answers.append("save")
     monkeypatch.setattr(QFileDialog, "getExistingDirectory", staticmethod(lambda *a, **k: str(tmp_path / "session")))
-    w.close()
+    quit_action = next(a for a in w.menuBar().actions()[0].menu().actions() if a.text() == "Quit")
+    quit_action.trigger()  # File → Quit goes through the same question
     assert not w.isVisible() and not w.model.unsaved
     saved = load_session(tmp_path / "session")
     np.testing.assert_array_equal(saved.shapes[1].scribble[:25], 2)
