@@ -58,11 +58,12 @@ class PreviewResult:
 
 
 class PreviewEngine:
-    """Computes previews; keeps each mesh's dual graph and network input (costly once)."""
+    """Computes previews; keeps each mesh's dual graph, network input and SDF (costly once)."""
 
     def __init__(self) -> None:
         self._graphs: dict[int, tuple[Mesh, DualGraph]] = {}
         self._inputs: dict[tuple[int, tuple], np.ndarray] = {}
+        self._sdf: dict[int, tuple[Mesh, np.ndarray]] = {}
 
     def graph(self, mesh: Mesh) -> DualGraph:
         key = id(mesh)
@@ -103,8 +104,13 @@ class PreviewEngine:
         from scribbleseg_core.cache import cached_face_features
         from scribbleseg_core.features import SDF_COLUMN
 
-        X = cached_face_features(mesh.V, mesh.F, compute=False)
-        return None if X is None else X[:, SDF_COLUMN]
+        key = id(mesh)
+        if key not in self._sdf or self._sdf[key][0] is not mesh:
+            X = cached_face_features(mesh.V, mesh.F, compute=False)  # hashes the mesh, reads the file
+            if X is None:
+                return None  # looked up again at the next stroke: a run may have computed them
+            self._sdf[key] = (mesh, X[:, SDF_COLUMN].copy())
+        return self._sdf[key][1]
 
 
 class PreviewWorker:

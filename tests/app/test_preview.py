@@ -84,3 +84,10 @@ def test_the_sdf_for_the_contrast_term_comes_only_from_the_cache(tmp_path, monke
     assert not list(tmp_path.rglob("*.npz"))
     X = cached_face_features(mesh.V, mesh.F)  # what a run (or "show feature") leaves behind
     np.testing.assert_array_equal(engine.sdf(mesh), X[:, 1])
+    import scribbleseg_core.cache as cache_module
+
+    def no_lookup(*args, **kwargs):
+        raise AssertionError("the SDF is read from the disk cache at every stroke")
+
+    monkeypatch.setattr(cache_module, "cached_face_features", no_lookup)
+    np.testing.assert_array_equal(engine.sdf(mesh), X[:, 1])  # kept once found
