@@ -17,6 +17,7 @@ import numpy as np
 
 from scribbleseg_core import __version__
 from scribbleseg_core.atomic import atomic_write_bytes, atomic_write_text
+from scribbleseg_core.cores import CoreParams
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.features import FEATURE_VERSION, NUM_FEATURES
 from scribbleseg_core.network import FaceClassifier, NetworkParams
@@ -103,7 +104,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         net = NetworkParams(**{**p["network"], "hidden": tuple(p["network"]["hidden"])})
         params = SegmentParams(**{**p, "network": net, "refinement": RefineParams(**p["refinement"]),
                                   "propagation": PropagateParams(**p.get("propagation", {})),
-                                  "context_scales": tuple(p["context_scales"])})
+                                  "cores": _core_params(p), "context_scales": tuple(p["context_scales"])})
         with np.load(folder / "arrays.npz", allow_pickle=False) as z:
             arr = {key: z[key] for key in z.files}
         state = torch.load(folder / "weights.pt", map_location="cpu", weights_only=True)
@@ -120,3 +121,13 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     if clf.num_inputs != expected or clf.mean.shape != (expected,):
         raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
     return TrainedModel(clf, encoder, float(meta["delta"]), names, params)
+
+
+def _core_params(p: dict) -> CoreParams | None:
+    """The saved ``cores`` parameters; a model saved before they existed gets the defaults."""
+    if "cores" not in p:
+        return CoreParams()
+    c = p["cores"]
+    if c is None:
+        return None
+    return CoreParams(**{**c, "propagation": PropagateParams(**c["propagation"])})

@@ -15,6 +15,7 @@ from typing import Literal
 import numpy as np
 
 from scribbleseg_core.context import DEFAULT_SCALES
+from scribbleseg_core.cores import CoreParams, propagate_from_cores
 from scribbleseg_core.energy import (
     EnergyTerms,
     energy_terms,
@@ -22,6 +23,7 @@ from scribbleseg_core.energy import (
     network_unary,
     scribble_unary,
 )
+from scribbleseg_core.features import SDF_COLUMN
 from scribbleseg_core.graphcut import alpha_expansion
 from scribbleseg_core.network import FaceClassifier, NetworkParams
 from scribbleseg_core.patches import nearest_scribble_labels
@@ -52,7 +54,8 @@ class SegmentParams:
         Run the face-level refinement after convergence: on scribbled shapes the scribble
         propagation of :mod:`scribbleseg_core.propagate` (`propagation`; strokes and
         creases, then, with `retrain`, once more with the retrained network), on unseen
-        shapes :func:`refine_labels` (`refinement`).
+        shapes :func:`refine_labels` (`refinement`), then, with `cores`, the propagation
+        from the confident cores of the refined parts.
     retrain : bool
         After the refinement, train the network afresh on the refined face labels (the model
         then used for unseen shapes), and propagate the scribbles once more with its
@@ -64,6 +67,11 @@ class SegmentParams:
         stroke is within this quantile (e.g. 0.5: the nearer half), so that a part
         instance far from any stroke (one leg of four painted) does not teach the network
         the label the propagation gave it. Experimental; off by default.
+    cores : CoreParams, optional
+        Unseen shapes, after the refinement: take the confident cores of the predicted
+        parts as scribbles and propagate from them with strong crease- and SDF-aware
+        smoothness (:mod:`scribbleseg_core.cores`). ``None`` stops at the refinement.
+        Full PSB benchmark, unseen shapes (5 folds): see the README.
     init : {"propagate", "geodesic", "paper"}
         The initial graph cut: ``"paper"`` uses eq. 1 alone (uniform cost on unscribbled
         patches), which has graph cuts' shrinking bias: with short strokes, cutting
@@ -84,6 +92,7 @@ class SegmentParams:
     network: NetworkParams = field(default_factory=NetworkParams)
     refinement: RefineParams = field(default_factory=RefineParams)
     propagation: PropagateParams = field(default_factory=PropagateParams)
+    cores: CoreParams | None = field(default_factory=CoreParams)
 
 
 @dataclass(frozen=True, eq=False)
@@ -295,7 +304,8 @@ def predict_shape(model: TrainedModel, shape: ShapeData, *, refine: bool | None 
     """Segment an unseen shape with a trained model (no scribbles needed).
 
     Patch-level graph cut on the network's log-probabilities and the feature term, then
-    (optionally) the face-level refinement. Scribbles on the shape, if any, are honoured.
+    (optionally) the face-level refinement and the propagation from its part cores
+    (``params.cores``). Scribbles on the shape, if any, are honoured.
 
     Returns
     -------
@@ -317,4 +327,7 @@ def predict_shape(model: TrainedModel, shape: ShapeData, *, refine: bool | None 
     if not refine:
         return patch_faces, patch_faces
     labels = refine_labels(shape.graph, logp, patch_faces, allowed, shape.scribble, model.params.refinement)
+    if model.params.cores is not None:
+        labels = propagate_from_cores(shape.graph, shape.area, labels, logp, shape.X[:, SDF_COLUMN], shape.scribble,
+                                      model.params.cores)
     return labels, patch_faces

@@ -129,7 +129,8 @@ def propagate_scribbles(
     U = np.zeros((graph.num_faces, k))
     scribbled = np.isfinite(D[reached].min(axis=0)) if reached.any() else np.zeros(k, bool)
     Dr = D[reached] - nearest[reached, None]
-    U[reached] = np.where(np.isfinite(Dr), params.distance * Dr / scale, INF)
+    finite = np.isfinite(Dr)
+    U[reached] = np.where(finite, params.distance * np.where(finite, Dr, 0.0) / scale, INF)
     if log_proba is not None and params.network > 0:
         U += params.network * -np.maximum(np.asarray(log_proba, dtype=np.float64), -30.0)
         U[reached] = np.where(scribbled[None, :], U[reached], INF)  # near scribbles: their labels

@@ -175,7 +175,8 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
     report = {"settings": {"modes": list(modes), "folds": folds, "scribbled": list(scribbled), "coverage": coverage,
                            "refine": refine, "seed": seed, "init": params.init,
                            "context_scales": list(params.context_scales),
-                           "propagation_contrast": params.propagation.contrast}, "categories": {}}
+                           "propagation_contrast": params.propagation.contrast,
+                           "cores": params.cores is not None}, "categories": {}}
     runs = [(m, None) for m in modes if m != "scribbled"] + [("scribbled", k) for k in (scribbled if "scribbled" in modes else [])]
     for cat in cats:
         items, names, t_feat = load_category(root, cat)

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from scribbleseg_core.cache import ArrayCache
+from scribbleseg_core.cores import CoreParams
 from scribbleseg_core.energy import scribble_unary
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.graphcut import INF
@@ -74,8 +77,12 @@ def test_stopping_early_leaves_valid_labels(collection):
 
 def test_unseen_shape_is_predicted(collection):
     shapes, gts, snaps = collection
-    labels, patch_labels = predict_shape(snaps[-1].model, shapes[3])
+    model = snaps[-1].model
+    labels, patch_labels = predict_shape(model, shapes[3])
     assert (labels == gts[3]).mean() >= 0.90
+    refined, same_patches = predict_shape(dataclasses.replace(model, params=dataclasses.replace(model.params, cores=None)), shapes[3])
+    np.testing.assert_array_equal(same_patches, patch_labels)  # cores act after the refinement only
+    assert (refined == gts[3]).mean() >= 0.90
 
 
 def test_model_round_trip_and_refusals(tmp_path, collection):
@@ -96,6 +103,13 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "version": 99}))
     with pytest.raises(ModelFileError, match="version 99"):
         load_model(tmp_path / "m")
+    # the unseen-shape core propagation settings travel with the model; a model saved
+    # before they existed gets the defaults; None (switched off) stays off
+    assert back.params.cores == model.params.cores
+    (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "params": {k: v for k, v in meta["params"].items() if k != "cores"}}))
+    assert load_model(tmp_path / "m").params.cores == CoreParams()
+    save_model(tmp_path / "off", dataclasses.replace(model, params=dataclasses.replace(model.params, cores=None)))
+    assert load_model(tmp_path / "off").params.cores is None
     (tmp_path / "m" / "model.json").write_text(json.dumps(meta))
     # a pickle with code in place of the weights is refused, not executed
     torch.save({"weights": object()}, tmp_path / "m" / "weights.pt")
