@@ -41,7 +41,9 @@ class CoreParams:
         get no core; the propagation may then absorb them. 0.005 is the threshold of the
         PSB scribble protocol (a part that small gets no stroke either).
     min_confidence : float
-        Core faces also need the network's probability of their label to reach this.
+        Core faces also need the network's probability of their label to reach this. A
+        predicted part where the network is nowhere this sure gets no core, and the
+        propagation lets its neighbours absorb it.
     propagation : PropagateParams
         The propagation from the cores. The distance term is off (cores are dense, so
         the nearest-core distance says little); smoothness 64 rather than the scribbles'
