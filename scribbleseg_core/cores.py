@@ -16,11 +16,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components, dijkstra
+from scipy.sparse.csgraph import dijkstra
 
 from scribbleseg_core.dual_graph import DualGraph
 from scribbleseg_core.propagate import PropagateParams, propagate_scribbles
+from scribbleseg_core.topology import label_components
 
 
 def _core_propagation() -> PropagateParams:
@@ -103,9 +103,8 @@ def part_cores(
     if boundary.size == 0:
         return y.copy()
     depth = dijkstra(graph.crease_matrix, directed=False, indices=boundary, min_only=True)
-    keep = ~cut
-    same = sp.coo_matrix((np.ones(int(keep.sum())), (i[keep], j[keep])), shape=(m, m))
-    n, part = connected_components(same, directed=False)
+    part = label_components(graph.pairs, y)
+    n = int(part.max()) + 1
     deepest = np.zeros(n)
     np.maximum.at(deepest, part, depth)  # inf for a mesh component without boundary
     a = np.asarray(area, dtype=np.float64)

@@ -152,13 +152,6 @@ def labeling_accuracy(pred: np.ndarray, truth: np.ndarray, area: np.ndarray | No
 
 def split_components(F: np.ndarray, labels: np.ndarray) -> np.ndarray:
     """Relabel so every segment is one connected component of same-label faces, (m,) int64."""
-    from scipy.sparse.csgraph import connected_components
+    from scribbleseg_core.topology import face_adjacency, label_components
 
-    from scribbleseg_core.topology import face_adjacency
-
-    pairs, _ = face_adjacency(F)
-    labels = np.asarray(labels)
-    same = labels[pairs[:, 0]] == labels[pairs[:, 1]]
-    m = len(labels)
-    G = sp.coo_matrix((np.ones(same.sum()), (pairs[same, 0], pairs[same, 1])), shape=(m, m))
-    return connected_components(G, directed=False)[1].astype(np.int64)
+    return label_components(face_adjacency(F)[0], labels)

@@ -7,6 +7,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from scribbleseg_core.dual_graph import DualGraph
+from scribbleseg_core.topology import label_components
 
 
 def over_segment(
@@ -42,7 +43,7 @@ def over_segment(
     patch = _seed_index(seeds, source)
     if scribble_labels is not None:
         patch = _split_mixed(W, patch, np.asarray(scribble_labels))
-    return _relabel_connected(graph, patch)
+    return label_components(graph.pairs, patch)  # renumbered 0 .. p-1, each patch connected
 
 
 def _seed_index(seeds: np.ndarray, source: np.ndarray) -> np.ndarray:
@@ -91,15 +92,6 @@ def _split_mixed(W, patch: np.ndarray, scribble: np.ndarray) -> np.ndarray:
     new_ids = np.unique(np.stack([patch[reached], scribble[src[reached]]], axis=1), axis=0, return_inverse=True)[1]
     out[reached] = patch.max() + 1 + new_ids.ravel()
     return out
-
-
-def _relabel_connected(graph: DualGraph, patch: np.ndarray) -> np.ndarray:
-    """Renumber as connected components of same-patch faces, ids ``0 .. p-1``."""
-    i, j = graph.pairs[:, 0], graph.pairs[:, 1]
-    same = patch[i] == patch[j]
-    m = graph.num_faces
-    G = sp.coo_matrix((np.ones(same.sum()), (i[same], j[same])), shape=(m, m))
-    return connected_components(G, directed=False)[1].astype(np.int64)
 
 
 def patch_adjacency(graph: DualGraph, patch: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -118,6 +118,28 @@ def face_components(F: np.ndarray, ed: Edges | None = None) -> tuple[int, np.nda
     return int(count), comp.astype(np.int64)
 
 
+def label_components(pairs: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Connected components of same-label faces.
+
+    Parameters
+    ----------
+    pairs : (q, 2) int ndarray
+        Adjacent faces (``face_adjacency`` or ``DualGraph.pairs``).
+    labels : (m,) ndarray
+        A label per face.
+
+    Returns
+    -------
+    comp : (m,) int64 ndarray
+        Component id per face, ``0 .. n-1``.
+    """
+    labels = np.asarray(labels)
+    m = len(labels)
+    same = labels[pairs[:, 0]] == labels[pairs[:, 1]]
+    G = sp.coo_matrix((np.ones(int(same.sum())), (pairs[same, 0], pairs[same, 1])), shape=(m, m))
+    return connected_components(G, directed=False)[1].astype(np.int64)
+
+
 def boundary_loops(F: np.ndarray, ed: Edges | None = None) -> int:
     """Number of connected chains of boundary edges (holes)."""
     ed = edges(F) if ed is None else ed

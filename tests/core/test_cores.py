@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
-
 from scribbleseg_core.cores import CoreParams, part_cores, propagate_from_cores
 from scribbleseg_core.dual_graph import dual_graph
 from scribbleseg_core.geometry import face_areas
 from scribbleseg_core.graphcut import alpha_expansion
+from scribbleseg_core.topology import label_components
 from tests.core.planted import LABELS, creature
 
 K = len(LABELS)
@@ -24,10 +22,8 @@ def planted():
 
 
 def _parts(graph, labels):
-    i, j = graph.pairs.T
-    keep = labels[i] == labels[j]
-    m = graph.num_faces
-    return connected_components(sp.coo_matrix((np.ones(keep.sum()), (i[keep], j[keep])), shape=(m, m)), directed=False)
+    part = label_components(graph.pairs, labels)
+    return int(part.max()) + 1, part
 
 
 def _noisy_log_proba(gt, flip, seed=0):
