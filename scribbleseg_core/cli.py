@@ -136,7 +136,9 @@ def _cmd_bench(args) -> int:
 
     base = SegmentParams()
     params = replace(base, network=replace(base.network, threads=args.threads),
-                     propagation=base.propagation if args.contrast is None else replace(base.propagation, contrast=args.contrast),
+                     propagation=replace(base.propagation,
+                                         **({} if args.contrast is None else {"contrast": args.contrast}),
+                                         **({} if args.walk is None else {"walk": args.walk})),
                      cores=base.cores if args.cores else None)
     report = bench(root, Path(args.out), modes=modes, cats=args.categories, folds=args.folds,
                    scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed,
@@ -195,6 +197,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=int, default=2, help="torch threads for training (1 when running two benchmarks at once)")
     p.add_argument("--contrast", type=float, default=None,
                    help="SDF contrast of the scribble propagation (default PropagateParams.contrast; 0 = off)")
+    p.add_argument("--walk", type=float, default=None,
+                   help="random-walk term of the scribble propagation (default PropagateParams.walk; 0 = off)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

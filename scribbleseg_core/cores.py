@@ -24,7 +24,7 @@ from scribbleseg_core.topology import label_components
 
 
 def _core_propagation() -> PropagateParams:
-    return PropagateParams(distance=0.0, smoothness=64.0)
+    return PropagateParams(distance=0.0, smoothness=64.0, walk=0.0)
 
 
 @dataclass(frozen=True)

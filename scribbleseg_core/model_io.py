@@ -103,7 +103,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         p = meta["params"]
         net = NetworkParams(**{**p["network"], "hidden": tuple(p["network"]["hidden"])})
         params = SegmentParams(**{**p, "network": net, "refinement": RefineParams(**p["refinement"]),
-                                  "propagation": PropagateParams(**p.get("propagation", {})),
+                                  "propagation": _propagate_params(p.get("propagation", {})),
                                   "cores": _core_params(p), "context_scales": tuple(p["context_scales"])})
         with np.load(folder / "arrays.npz", allow_pickle=False) as z:
             arr = {key: z[key] for key in z.files}
@@ -130,4 +130,9 @@ def _core_params(p: dict) -> CoreParams | None:
     c = p["cores"]
     if c is None:
         return None
-    return CoreParams(**{**c, "propagation": PropagateParams(**c["propagation"])})
+    return CoreParams(**{**c, "propagation": _propagate_params(c["propagation"])})
+
+
+def _propagate_params(d: dict) -> PropagateParams:
+    """Saved propagation parameters; files from before the random-walk term ran without it."""
+    return PropagateParams(**{"walk": 0.0, **d})

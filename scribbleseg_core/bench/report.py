@@ -176,6 +176,7 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
                            "refine": refine, "seed": seed, "init": params.init,
                            "context_scales": list(params.context_scales),
                            "propagation_contrast": params.propagation.contrast,
+                           "propagation_walk": params.propagation.walk,
                            "cores": params.cores is not None}, "categories": {}}
     runs = [(m, None) for m in modes if m != "scribbled"] + [("scribbled", k) for k in (scribbled if "scribbled" in modes else [])]
     for cat in cats:

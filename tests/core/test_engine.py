@@ -110,6 +110,11 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     assert load_model(tmp_path / "m").params.cores == CoreParams()
     save_model(tmp_path / "off", dataclasses.replace(model, params=dataclasses.replace(model.params, cores=None)))
     assert load_model(tmp_path / "off").params.cores is None
+    # the random-walk weight travels too; a model saved before it existed ran without it
+    assert back.params.propagation == model.params.propagation and back.params.propagation.walk > 0
+    old_prop = {k: v for k, v in meta["params"]["propagation"].items() if k != "walk"}
+    (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "params": {**meta["params"], "propagation": old_prop}}))
+    assert load_model(tmp_path / "m").params.propagation.walk == 0.0
     (tmp_path / "m" / "model.json").write_text(json.dumps(meta))
     # a pickle with code in place of the weights is refused, not executed
     torch.save({"weights": object()}, tmp_path / "m" / "weights.pt")

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from scribbleseg_core.dual_graph import dual_graph
-from scribbleseg_core.propagate import PropagateParams, propagate_scribbles, scribble_distances
+from scribbleseg_core.propagate import PropagateParams, propagate_scribbles, random_walk_probabilities, scribble_distances
 from tests.core.planted import LABELS, creature, stroke_faces
 
 
@@ -32,10 +34,11 @@ def test_network_term_can_override_distance(planted):
     graph, gt, scribble = planted
     # a confident "network" that knows the truth fixes what distance alone gets wrong
     logp = np.log(np.where(np.arange(len(LABELS))[None, :] == gt[:, None], 0.97, 0.03 / (len(LABELS) - 1)))
-    alone = (propagate_scribbles(graph, scribble, len(LABELS)) == gt).mean()
-    labels = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=PropagateParams(network=3.0))
+    plain = PropagateParams(walk=0.0)
+    alone = (propagate_scribbles(graph, scribble, len(LABELS), params=plain) == gt).mean()
+    labels = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=replace(plain, network=3.0))
     assert (labels == gt).mean() >= max(0.975, alone + 0.01)
-    off = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=PropagateParams(network=0.0))
+    off = propagate_scribbles(graph, scribble, len(LABELS), log_proba=logp, params=replace(plain, network=0.0))
     assert (off == gt).mean() == alone  # weight 0: the network is ignored
 
 
@@ -84,3 +87,41 @@ def test_contrast_moves_a_crease_free_boundary_to_where_the_sdf_jumps():
     assert (labels[between] == 1).all() and (labels[x < 11] == 0).all()
     with pytest.raises(ValueError, match="shape"):
         propagate_scribbles(graph, scribble, 2, sdf=sdf[:-1], params=PropagateParams(contrast=1.0))
+
+
+def test_random_walk_probabilities_are_a_distribution(planted):
+    graph, gt, scribble = planted
+    k = len(LABELS) + 1  # one label never scribbled
+    P = random_walk_probabilities(graph, scribble, k, crease=0.03)
+    assert P.shape == (graph.num_faces, k)
+    np.testing.assert_allclose(P.sum(axis=1), 1.0, atol=1e-6)
+    assert np.all(P[:, -1] == 0)  # an absent label gets no probability
+    sel = scribble >= 0
+    np.testing.assert_array_equal(P[sel].argmax(axis=1), scribble[sel])
+    assert np.all(P[sel].max(axis=1) == 1.0)
+    # on its own, the walk already finds the planted parts
+    assert (P.argmax(axis=1) == gt).mean() >= 0.95
+
+
+def test_random_walk_leaves_unscribbled_components_at_zero(planted):
+    graph, _, scribble = planted
+    from scribbleseg_core.dual_graph import DualGraph
+
+    # two copies of the mesh side by side, strokes on the first copy only
+    m = graph.num_faces
+    two = DualGraph(np.vstack([graph.pairs, graph.pairs + m]), np.r_[graph.length, graph.length],
+                    np.r_[graph.centroid_dist, graph.centroid_dist], np.r_[graph.concavity, graph.concavity], 2 * m)
+    P = random_walk_probabilities(two, np.r_[scribble, np.full(m, -1)], len(LABELS), crease=0.03)
+    assert np.all(P[m:] == 0)
+    np.testing.assert_allclose(P[:m], random_walk_probabilities(graph, scribble, len(LABELS), crease=0.03), atol=1e-6)
+
+
+def test_walk_term_is_used_and_switchable(planted):
+    graph, gt, scribble = planted
+    k = len(LABELS)
+    walk_only = PropagateParams(distance=0.0, walk=1.0)
+    assert (propagate_scribbles(graph, scribble, k, params=walk_only) == gt).mean() >= 0.95
+    # a dominant walk term with next to no smoothing gives the walk's own argmax
+    P = random_walk_probabilities(graph, scribble, k, crease=walk_only.crease)
+    strong = propagate_scribbles(graph, scribble, k, params=replace(walk_only, walk=100.0, smoothness=1e-3))
+    np.testing.assert_array_equal(strong, P.argmax(axis=1))
