@@ -62,7 +62,11 @@ class PropagateParams:
     log-probabilities of the 12 categories (all shapes scribbled; fit, not held out):
     walk 0.25 / 0.5 / 1 gave 0.0549 / 0.0540 / 0.0529 against 0.0569 without (Bust 0.145
     → 0.123, FourLeg 0.095 → 0.084, Plier 0.044 → 0.037; Glasses 0.039 → 0.041 worse);
-    walk 2 made Glasses (0.042) and Octopus (0.032) worse again. The live preview pays for
+    walk 2 made Glasses (0.042) and Octopus (0.032) worse again. It acts only beside the
+    network term (`log_proba` given, ``network > 0``): alone, with the weak distance term,
+    it made the labels worse at every weight tried (walk 1: Glasses 0.046 → 0.069, Chair
+    0.011 → 0.020; 0.2: Glasses 0.048), and those labels are what the network is
+    retrained on, so the unseen shapes are unchanged by it. The live preview pays for
     it with one sparse factorization per stroke (8k faces: +20–60 ms).
     """
 
@@ -151,7 +155,7 @@ def propagate_scribbles(
         U[reached] = np.where(scribbled[None, :], U[reached], INF)  # near scribbles: their labels
     else:
         U[~reached] = np.where(np.arange(k) == np.bincount(scribble[s], minlength=k).argmax(), 0.0, 1.0)
-    if params.walk > 0:
+    if params.walk > 0 and log_proba is not None and params.network > 0:  # see PropagateParams.walk
         P = random_walk_probabilities(graph, scribble, k, params.crease)
         U += params.walk * -np.log(np.maximum(P, 1e-6))
     U[s] = INF

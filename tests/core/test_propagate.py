@@ -116,12 +116,18 @@ def test_random_walk_leaves_unscribbled_components_at_zero(planted):
     np.testing.assert_allclose(P[:m], random_walk_probabilities(graph, scribble, len(LABELS), crease=0.03), atol=1e-6)
 
 
-def test_walk_term_is_used_and_switchable(planted):
+def test_walk_term_joins_the_network_term_only(planted):
     graph, gt, scribble = planted
     k = len(LABELS)
-    walk_only = PropagateParams(distance=0.0, walk=1.0)
-    assert (propagate_scribbles(graph, scribble, k, params=walk_only) == gt).mean() >= 0.95
+    flat = np.full((graph.num_faces, k), -np.log(k))  # a network that knows nothing
+    walk_only = PropagateParams(distance=0.0, walk=1.0, network=1.0)
+    assert (propagate_scribbles(graph, scribble, k, log_proba=flat, params=walk_only) == gt).mean() >= 0.95
     # a dominant walk term with next to no smoothing gives the walk's own argmax
     P = random_walk_probabilities(graph, scribble, k, crease=walk_only.crease)
-    strong = propagate_scribbles(graph, scribble, k, params=replace(walk_only, walk=100.0, smoothness=1e-3))
+    strong = propagate_scribbles(graph, scribble, k, log_proba=flat, params=replace(walk_only, walk=100.0, smoothness=1e-3))
     np.testing.assert_array_equal(strong, P.argmax(axis=1))
+    # without the network (the labels the network is trained on) the walk does not act
+    plain = propagate_scribbles(graph, scribble, k, params=PropagateParams(walk=0.0))
+    np.testing.assert_array_equal(propagate_scribbles(graph, scribble, k, params=PropagateParams(walk=1.0)), plain)
+    np.testing.assert_array_equal(
+        propagate_scribbles(graph, scribble, k, log_proba=flat, params=PropagateParams(walk=1.0, network=0.0)), plain)
