@@ -4,9 +4,9 @@ Each face prefers the label of its nearest scribble in the crease-aware dual met
 (:meth:`DualGraph.crease_distance`), scribbled faces are hard constraints, and the Potts
 smoothness is cheap across concave creases and dear elsewhere, so labels stop at creases.
 Optional network log-probabilities join the unary term, and with them the random-walker
-probabilities from the strokes (:func:`random_walk_probabilities`). This needs no features, so it is
-fast enough for the app's live preview after every stroke; the engine uses it for the
-final labels of scribbled shapes.
+probabilities from the strokes (:func:`random_walk_probabilities`). Without the network it
+needs no features, so it is fast enough for the app's live preview after every stroke; the
+engine uses it for the final labels of scribbled shapes.
 """
 
 from __future__ import annotations
