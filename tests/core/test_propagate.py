@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from scribbleseg_core.dual_graph import dual_graph
+from scribbleseg_core.dual_graph import DualGraph, dual_graph
 from scribbleseg_core.propagate import PropagateParams, propagate_scribbles, random_walk_probabilities, scribble_distances
 from tests.core.planted import LABELS, creature, stroke_faces
 
@@ -105,8 +105,6 @@ def test_random_walk_probabilities_are_a_distribution(planted):
 
 def test_random_walk_leaves_unscribbled_components_at_zero(planted):
     graph, _, scribble = planted
-    from scribbleseg_core.dual_graph import DualGraph
-
     # two copies of the mesh side by side, strokes on the first copy only
     m = graph.num_faces
     two = DualGraph(np.vstack([graph.pairs, graph.pairs + m]), np.r_[graph.length, graph.length],
