@@ -34,9 +34,7 @@ def diffuse_face_values(graph: DualGraph, area: np.ndarray, X: np.ndarray, scale
     Y : (m, d · len(scales)) float64 ndarray
     """
     m = graph.num_faces
-    w = graph.length / np.maximum(graph.centroid_dist, 1e-12)
-    W = graph.matrix(w)
-    L = sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W
+    L = graph.laplacian()
     a = np.maximum(area, 1e-12 * max(area.mean(), 1e-300))
     M = sp.diags(a)
     out = []

@@ -59,6 +59,17 @@ class DualGraph:
         scribble cue both walk it)."""
         return self.matrix(self.crease_distance())
 
+    @property
+    def diffusion_weights(self) -> np.ndarray:
+        """Finite-volume arc weights ``shared edge length / centroid distance``, (q,) float64."""
+        return self.length / np.maximum(self.centroid_dist, 1e-12)
+
+    def laplacian(self, weights: np.ndarray | None = None) -> sp.csr_matrix:
+        """Graph Laplacian ``D − W``, (m, m) csr, with arc weights `weights` (q,); by default
+        :attr:`diffusion_weights`."""
+        W = self.matrix(self.diffusion_weights if weights is None else weights)
+        return (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
+
     def matrix(self, values: np.ndarray) -> sp.csr_matrix:
         """Symmetric sparse (m, m) matrix with `values` (q,) on the arcs."""
         i, j = self.pairs[:, 0], self.pairs[:, 1]

@@ -14,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from scipy.sparse.csgraph import connected_components, dijkstra
 
@@ -156,11 +155,10 @@ def propagate_scribbles(
     if log_proba is not None and params.network > 0:
         U += params.network * -np.maximum(np.asarray(log_proba, dtype=np.float64), -30.0)
         U[reached] = np.where(scribbled[None, :], U[reached], INF)  # near scribbles: their labels
+        if params.walk > 0:  # only beside the network: see PropagateParams.walk
+            U += params.walk * -np.log(np.maximum(random_walk_probabilities(graph, scribble, k, params.crease), 1e-6))
     else:
         U[~reached] = np.where(np.arange(k) == np.bincount(scribble[s], minlength=k).argmax(), 0.0, 1.0)
-    if params.walk > 0 and log_proba is not None and params.network > 0:  # see PropagateParams.walk
-        P = random_walk_probabilities(graph, scribble, k, params.crease)
-        U += params.walk * -np.log(np.maximum(P, 1e-6))
     U[s] = INF
     U[s, scribble[s]] = 0.0
     w = graph.crease_potts_weights(params.smoothness, params.crease)
@@ -194,15 +192,13 @@ def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, cr
     """
     scribble = np.asarray(scribble, dtype=np.int64)
     m = graph.num_faces
-    w = graph.length / np.maximum(graph.centroid_dist, 1e-12) * np.exp(-graph.concavity / crease)
-    w = np.maximum(w, 1e-9 * max(float(w.mean()), 1e-300))  # sharp creases: weak, never cut off
-    W = graph.matrix(w)
-    L = (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
+    w = graph.diffusion_weights * np.exp(-graph.concavity / crease)
+    L = graph.laplacian(np.maximum(w, 1e-9 * max(float(w.mean()), 1e-300)))  # sharp creases: weak, never cut off
     seeded = scribble >= 0
     P = np.zeros((m, k))
     P[seeded, scribble[seeded]] = 1.0
     # only components holding a stroke are solved (elsewhere the system is singular)
-    _, comp = connected_components(W, directed=False)
+    _, comp = connected_components(L, directed=False)
     live = np.isin(comp, comp[seeded])
     u, s = np.flatnonzero(live & ~seeded), np.flatnonzero(seeded)
     present = np.unique(scribble[s])
