@@ -115,6 +115,11 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     old_prop = {k: v for k, v in meta["params"]["propagation"].items() if k != "walk"}
     (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "params": {**meta["params"], "propagation": old_prop}}))
     assert load_model(tmp_path / "m").params.propagation.walk == 0.0
+    # so does the cross-fitting share; a model saved before it existed ran without it
+    assert back.params.cross_fit == model.params.cross_fit > 0
+    (tmp_path / "m" / "model.json").write_text(
+        json.dumps({**meta, "params": {k: v for k, v in meta["params"].items() if k != "cross_fit"}}))
+    assert load_model(tmp_path / "m").params.cross_fit == 0.0
     (tmp_path / "m" / "model.json").write_text(json.dumps(meta))
     # a pickle with code in place of the weights is refused, not executed
     torch.save({"weights": object()}, tmp_path / "m" / "weights.pt")
@@ -163,3 +168,51 @@ def test_retrain_near_keeps_the_faces_nearest_the_strokes(collection):
         sel = s.scribble >= 0
         np.testing.assert_array_equal(y[sel], gt[sel])  # strokes are nearest of all
         np.testing.assert_array_equal(y[y >= 0], gt[y >= 0])  # kept faces keep their label
+
+
+def test_cross_fit_folds_hold_each_shape_out_once():
+    from scribbleseg_core.optimize import cross_fit_folds
+
+    for n, folds in [(20, 4), (3, 4), (2, 2), (7, 3)]:
+        held = cross_fit_folds(n, folds)
+        assert len(held) == min(n, folds)
+        np.testing.assert_array_equal(np.sort(np.concatenate(held)), np.arange(n))
+    with pytest.raises(ValueError, match="at least 2 shapes"):
+        cross_fit_folds(1, 4)
+
+
+def test_cross_fit_mixes_held_out_networks_and_leaves_the_model_alone(collection):
+    shapes, gts, snaps = collection
+    phases = [s.phase for s in snaps]
+    assert phases.count("crossfit") == 3  # three scribbled shapes, one held out per fold
+    assert phases.index("retrain") < phases.index("crossfit") < len(phases) - 2
+    assert phases[-2:] == ["retrain", "done"]
+    off = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit=0.0)))
+    assert "crossfit" not in [s.phase for s in off]
+    x = shapes[3].network_input(PARAMS.context_scales)
+    # the model (used on unseen shapes) is the same network either way
+    np.testing.assert_allclose(off[-1].model.classifier.log_proba(x), snaps[-1].model.classifier.log_proba(x), atol=1e-6)
+    for s, gt, labels in zip(shapes, gts, snaps[-1].labels):
+        assert (labels == gt).mean() >= 0.95
+
+
+def test_held_out_network_replaces_the_own_one_at_share_1(collection):
+    from scribbleseg_core.network import FaceClassifier
+    from scribbleseg_core.optimize import _mix_held_out
+
+    shapes, gts, _ = collection
+    inputs = [s.network_input(PARAMS.context_scales) for s in shapes[:3]]
+    own = [np.log(np.full((len(x), len(LABELS)), 1.0 / len(LABELS))) for x in inputs]
+    logp = list(own)
+    _mix_held_out(logp, inputs, gts[:3], np.array([0]), len(LABELS), dataclasses.replace(PARAMS, cross_fit=1.0))
+    other = FaceClassifier(inputs[0].shape[1], len(LABELS), PARAMS.network)
+    other.fit(inputs[1:], gts[1:3])
+    np.testing.assert_allclose(logp[0], other.log_proba(inputs[0]), atol=1e-6)
+    assert logp[1] is own[1] and logp[2] is own[2]  # only the held-out shape changes
+    assert (logp[0].argmax(1) == gts[0]).mean() >= 0.9  # learned from the other two shapes
+
+
+def test_cross_fit_share_is_checked(collection):
+    shapes, _, _ = collection
+    with pytest.raises(ValueError, match="cross_fit"):
+        next(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit=1.5)))
