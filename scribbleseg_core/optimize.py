@@ -86,10 +86,10 @@ class SegmentParams:
         without: a = 0.3 / 0.5 / 0.6 / 0.7 / 0.8 / 0.9 gave 0.0521 / 0.0516 / 0.0512 / 0.0504 /
         0.0505 / 0.0519 (a = 0.7: better on 9 of 12, Bird 0.068 → 0.063, Vase 0.080 → 0.071,
         Mech 0.032 → 0.029; worse on Octopus 0.031 → 0.033, Chair and Plier by 0.0003);
-        P_others alone was far worse (Bust
-        0.123 → 0.208, Vase 0.172), and a second network trained on all shapes with another
-        seed in its place changed nothing (Bird 0.0675 → 0.0670), so the gain is the held-out
-        opinion, not averaging; geometric mixing was worse (a = 0.5: 0.054).
+        P_others alone was far worse (Bust 0.123 → 0.208, Vase 0.172), and a second network
+        trained on all shapes with another seed in its place changed nothing (Bird 0.0675 →
+        0.0670), so the gain is the held-out opinion, not averaging; geometric mixing was
+        worse (a = 0.5: 0.054).
     cross_fit_folds : int
         Folds of the cross-fitting (at most one per shape).
     init : {"propagate", "geodesic", "paper"}
