@@ -213,7 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_bench)
 
-    p = sub.add_parser("bench-merge", help="merge benchmark reports run apart (e.g. one per core, by categories)")
+    p = sub.add_parser("bench-merge", help="merge benchmark reports run apart (e.g. one per core, by categories or by modes)")
     p.add_argument("data", help="the benchmark data the parts were run on")
     p.add_argument("parts", nargs="+", help="output folders of 'scribbleseg bench'")
     p.add_argument("--out", required=True)

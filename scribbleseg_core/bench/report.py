@@ -226,11 +226,12 @@ def finish_report(root: Path, out: Path, report: dict) -> dict:
 
 
 def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
-    """One report from benchmarks run apart (say one per core, over different categories).
+    """One report from benchmarks run apart (say one per core, over different categories,
+    or one mode here and another there).
 
-    Every part must have been run with the same settings; a category in several parts is
-    refused. The parts' ``.seg`` files are copied into `out` and every error is verified
-    again from them.
+    Every part must have been run with the same settings but for the modes; a category's
+    mode in several parts is refused. The parts' ``.seg`` files are copied into `out` and
+    every error is verified again from them.
 
     Parameters
     ----------
@@ -253,21 +254,27 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
         path = part / "report.json"
         try:
             rep = json.loads(path.read_text())
-            settings, categories = rep["settings"], rep["categories"]
-        except (OSError, ValueError, KeyError, TypeError) as e:
+            settings, categories = dict(rep["settings"]), rep["categories"]
+            modes = settings.pop("modes")
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
             raise ScribblesegError(f"{path}: not a benchmark report ({e})") from None
         if merged is None:
             merged = {"settings": settings, "categories": {}}
+            first_modes = []
         elif settings != merged["settings"]:
             raise ScribblesegError(f"{path}: run with other settings than {parts[0]}: {settings} vs {merged['settings']}")
+        first_modes += [m for m in modes if m not in first_modes]
         for cat, entry in categories.items():
-            if cat in merged["categories"]:
-                raise ScribblesegError(f"{path}: category {cat} is in more than one part")
-            merged["categories"][cat] = entry
+            have = merged["categories"].setdefault(cat, {})
+            twice = [key for key, val in entry.items() if isinstance(val, dict) and key in have]
+            if twice:
+                raise ScribblesegError(f"{path}: category {cat} ({', '.join(twice)}) is in more than one part")
+            have.update({key: val for key, val in entry.items() if isinstance(val, dict) or key not in have})
             if (part / cat).is_dir():
                 shutil.copytree(part / cat, out / cat, dirs_exist_ok=True)
     if merged is None:
         raise ScribblesegError("no reports to merge")
+    merged["settings"] = {"modes": first_modes, **merged["settings"]}
     merged["categories"] = dict(sorted(merged["categories"].items()))
     return finish_report(root, out, merged)
 

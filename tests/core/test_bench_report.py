@@ -101,6 +101,15 @@ def test_reports_run_apart_merge_into_one(tmp_path, planted_root):
     bench(root, tmp_path / "c", modes=("train",), cats=["Second"], folds=3, params=FAST)
     with pytest.raises(ScribblesegError, match="other settings"):
         merge_reports(root, [tmp_path / "a", tmp_path / "c"], tmp_path / "m3")
+    # parts may split by mode too: train here, test there, one category
+    t = bench(root, tmp_path / "t", modes=("test",), cats=["Second"], folds=3, params=FAST)
+    both = merge_reports(root, [tmp_path / "c", tmp_path / "t"], tmp_path / "m5")
+    assert both["settings"]["modes"] == ["train", "test"]
+    assert set(both["categories"]["Second"]) >= {"train", "test", "shapes"}
+    assert both["average"]["test"]["ri_error"] == pytest.approx(t["average"]["test"]["ri_error"])
+    assert (tmp_path / "m5" / "Second" / "test").is_dir() and (tmp_path / "m5" / "Second" / "train").is_dir()
+    with pytest.raises(ScribblesegError, match=r"Second \(test\) is in more than one part"):
+        merge_reports(root, [tmp_path / "t", tmp_path / "t"], tmp_path / "m6")
     (tmp_path / "bad").mkdir()
     (tmp_path / "bad" / "report.json").write_text("{")
     with pytest.raises(ScribblesegError, match="not a benchmark report"):
