@@ -140,8 +140,7 @@ def _cmd_bench(args) -> int:
                                          **({} if args.contrast is None else {"contrast": args.contrast}),
                                          **({} if args.walk is None else {"walk": args.walk})),
                      cores=base.cores if args.cores else None,
-                     **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
-                     **({} if args.model_on_final is None else {"model_on_final": args.model_on_final}))
+                     **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}))
     report = bench(root, Path(args.out), modes=modes, cats=args.categories, folds=args.folds,
                    scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed,
                    params=params, progress=progress)
@@ -204,9 +203,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cross-fit", type=float, default=None,
                    help="share of the held-out networks in the scribbled shapes' final propagation "
                         "(default SegmentParams.cross_fit; 0 = off)")
-    p.add_argument("--model-on-final", action=argparse.BooleanOptionalAction, default=None,
-                   help="train the model for unseen shapes once more on the cross-fitted final labels "
-                        "(default SegmentParams.model_on_final)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

@@ -92,11 +92,6 @@ class SegmentParams:
         worse (a = 0.5: 0.054).
     cross_fit_folds : int
         Folds of the cross-fitting (at most one per shape).
-    model_on_final : bool
-        With cross-fitting (`cross_fit` > 0 and 2 scribbled shapes or more): train the
-        model (the network used for unseen shapes) once more, afresh, on the scribbled
-        shapes' final, cross-fitted labels, the closest to the truth the collection has.
-        One more training; the scribbled shapes' labels do not change.
     init : {"propagate", "geodesic", "paper"}
         The initial graph cut: ``"paper"`` uses eq. 1 alone (uniform cost on unscribbled
         patches), which has graph cuts' shrinking bias: with short strokes, cutting
@@ -120,7 +115,6 @@ class SegmentParams:
     cores: CoreParams | None = field(default_factory=CoreParams)
     cross_fit: float = 0.7
     cross_fit_folds: int = 4
-    model_on_final: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -291,10 +285,6 @@ def segment_collection(
                         yield Snapshot(it, "crossfit", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
                     t = time.perf_counter()
                 faces = [s.propagate(k, params.propagation, lp) for s, lp in zip(shapes, logp)]
-                if params.cross_fit > 0 and len(shapes) >= 2 and params.model_on_final:
-                    yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
-                    t = time.perf_counter()
-                    clf.fit(inputs, faces)
             yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
     yield Snapshot(it, "done", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t0, model)
 

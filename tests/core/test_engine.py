@@ -120,14 +120,6 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     (tmp_path / "m" / "model.json").write_text(
         json.dumps({**meta, "params": {k: v for k, v in meta["params"].items() if k != "cross_fit"}}))
     assert load_model(tmp_path / "m").params.cross_fit == 0.0
-    # and whether the model was trained on the cross-fitted labels (not before it existed)
-    assert back.params.model_on_final == model.params.model_on_final
-    (tmp_path / "m" / "model.json").write_text(json.dumps(
-        {**meta, "params": {**{k: v for k, v in meta["params"].items() if k != "model_on_final"}, "model_on_final": True}}))
-    assert load_model(tmp_path / "m").params.model_on_final is True
-    (tmp_path / "m" / "model.json").write_text(
-        json.dumps({**meta, "params": {k: v for k, v in meta["params"].items() if k != "model_on_final"}}))
-    assert load_model(tmp_path / "m").params.model_on_final is False
     (tmp_path / "m" / "model.json").write_text(json.dumps(meta))
     # a pickle with code in place of the weights is refused, not executed
     torch.save({"weights": object()}, tmp_path / "m" / "weights.pt")
@@ -224,31 +216,3 @@ def test_cross_fit_share_is_checked(collection):
     shapes, _, _ = collection
     with pytest.raises(ValueError, match="cross_fit"):
         next(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit=1.5)))
-
-
-def test_model_on_final_trains_the_model_on_the_cross_fitted_labels(collection):
-    from scribbleseg_core.network import FaceClassifier
-
-    shapes, gts, _ = collection
-    on = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, model_on_final=True)))
-    off = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, model_on_final=False)))
-    assert [s.phase for s in on].count("retrain") == [s.phase for s in off].count("retrain") + 1
-    for a, b in zip(on[-1].labels, off[-1].labels):  # the scribbled shapes' labels do not change
-        np.testing.assert_array_equal(a, b)
-    inputs = [s.network_input(PARAMS.context_scales) for s in shapes[:3]]
-    fresh = FaceClassifier(inputs[0].shape[1], len(LABELS), PARAMS.network)
-    fresh.fit(inputs, list(on[-1].labels))
-    x = shapes[3].network_input(PARAMS.context_scales)
-    np.testing.assert_allclose(on[-1].model.classifier.log_proba(x), fresh.log_proba(x), atol=1e-6)
-    assert not np.allclose(on[-1].model.classifier.log_proba(x), off[-1].model.classifier.log_proba(x), atol=1e-3)
-    assert (on[-1].model.classifier.log_proba(x).argmax(1) == gts[3]).mean() >= 0.9
-
-
-def test_model_on_final_needs_cross_fitting(collection):
-    shapes, _, _ = collection
-    one = [shapes[0], shapes[3]]  # one scribbled shape: no cross-fitting, so nothing to retrain on
-    on = list(segment_collection(one, LABELS, dataclasses.replace(PARAMS, model_on_final=True)))
-    off = list(segment_collection(one, LABELS, dataclasses.replace(PARAMS, model_on_final=False)))
-    assert [s.phase for s in on] == [s.phase for s in off]
-    x = shapes[3].network_input(PARAMS.context_scales)
-    np.testing.assert_allclose(on[-1].model.classifier.log_proba(x), off[-1].model.classifier.log_proba(x), atol=1e-6)
