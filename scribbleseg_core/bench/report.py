@@ -215,7 +215,7 @@ def finish_report(root: Path, out: Path, report: dict) -> dict:
     """Verify `report` against the .seg files in `out`, average it over categories, and write
     ``report.json``, ``report.md`` and ``chart.png`` into `out`; returns the report."""
     report["verified"] = verify(root, out, report)
-    report["average"] = {key: {m: float(np.nanmean([c[key]["summary"].get(m, np.nan) for c in report["categories"].values() if key in c]))
+    report["average"] = {key: {m: _mean([c[key]["summary"] for c in report["categories"].values() if key in c], m)
                                for m in ("ri_error", "ri_error_human", "ri_error_patch", "seconds_per_shape")}
                          for key in {k for c in report["categories"].values() for k in c if isinstance(c[k], dict)}}
     out.mkdir(parents=True, exist_ok=True)

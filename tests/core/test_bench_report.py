@@ -114,3 +114,24 @@ def test_reports_run_apart_merge_into_one(tmp_path, planted_root):
     (tmp_path / "bad" / "report.json").write_text("{")
     with pytest.raises(ScribblesegError, match="not a benchmark report"):
         merge_reports(root, [tmp_path / "a", tmp_path / "bad"], tmp_path / "m4")
+
+
+def test_given_mode_scores_painted_and_unpainted_shapes_apart(tmp_path, planted_root):
+    import shutil
+    import warnings
+
+    root = tmp_path / "psb"
+    shutil.copytree(planted_root, root)
+    (root / "Planted" / "benchmark_seg.npz").unlink()  # like a user's folder: no human segmentations
+    for name in ("2", "4"):
+        (root / "Planted" / "scribbles" / f"{name}.json").unlink()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # no "mean of empty slice" for the missing human scores
+        report = bench(root, tmp_path / "out", modes=("given",), params=FAST)
+    entry = report["categories"]["Planted"]
+    assert report["verified"] is True
+    assert sorted(entry["given_scribbled"]["shapes"]) == ["1", "3"]
+    assert sorted(entry["given_unscribbled"]["shapes"]) == ["2", "4"]
+    assert entry["given_scribbled"]["summary"]["ri_error"] < 0.08
+    assert np.isnan(report["average"]["given_unscribbled"]["ri_error_human"])
+    assert np.isfinite(report["average"]["given_unscribbled"]["ri_error"])
