@@ -249,7 +249,7 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
     out = Path(out)
     if any(out.resolve() == Path(p).resolve() for p in parts):
         raise ScribblesegError(f"{out}: the merged report cannot go into one of its parts")
-    merged = None
+    merged, all_modes = None, []
     for part in map(Path, parts):
         path = part / "report.json"
         try:
@@ -260,10 +260,9 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
             raise ScribblesegError(f"{path}: not a benchmark report ({e})") from None
         if merged is None:
             merged = {"settings": settings, "categories": {}}
-            first_modes = []
         elif settings != merged["settings"]:
             raise ScribblesegError(f"{path}: run with other settings than {parts[0]}: {settings} vs {merged['settings']}")
-        first_modes += [m for m in modes if m not in first_modes]
+        all_modes += [m for m in modes if m not in all_modes]
         for cat, entry in categories.items():
             have = merged["categories"].setdefault(cat, {})
             twice = [key for key, val in entry.items() if isinstance(val, dict) and key in have]
@@ -274,7 +273,7 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
                 shutil.copytree(part / cat, out / cat, dirs_exist_ok=True)
     if merged is None:
         raise ScribblesegError("no reports to merge")
-    merged["settings"] = {"modes": first_modes, **merged["settings"]}
+    merged["settings"] = {"modes": all_modes, **merged["settings"]}
     merged["categories"] = dict(sorted(merged["categories"].items()))
     return finish_report(root, out, merged)
 
