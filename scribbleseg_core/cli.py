@@ -140,7 +140,8 @@ def _cmd_bench(args) -> int:
                                          **({} if args.contrast is None else {"contrast": args.contrast}),
                                          **({} if args.walk is None else {"walk": args.walk})),
                      cores=base.cores if args.cores else None,
-                     **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}))
+                     **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
+                     **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}))
     report = bench(root, Path(args.out), modes=modes, cats=args.categories, folds=args.folds,
                    scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed,
                    params=params, progress=progress)
@@ -203,6 +204,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cross-fit", type=float, default=None,
                    help="share of the held-out networks in the scribbled shapes' final propagation "
                         "(default SegmentParams.cross_fit; 0 = off)")
+    p.add_argument("--cross-fit-repeats", type=int, default=None,
+                   help="splits of the shapes the cross-fitting averages over "
+                        "(default SegmentParams.cross_fit_repeats; 1 = one split)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

@@ -102,8 +102,8 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     try:
         p = meta["params"]
         net = NetworkParams(**{**p["network"], "hidden": tuple(p["network"]["hidden"])})
-        # files from before cross-fitting ran without it
-        params = SegmentParams(**{"cross_fit": 0.0, **p, "network": net, "refinement": RefineParams(**p["refinement"]),
+        # files from before cross-fitting (and its repeats) ran without them
+        params = SegmentParams(**{"cross_fit": 0.0, "cross_fit_repeats": 1, **p, "network": net, "refinement": RefineParams(**p["refinement"]),
                                   "propagation": _propagate_params(p.get("propagation", {})),
                                   "cores": _core_params(p), "context_scales": tuple(p["context_scales"])})
         with np.load(folder / "arrays.npz", allow_pickle=False) as z:

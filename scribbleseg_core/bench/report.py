@@ -179,6 +179,7 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
                            "propagation_walk": params.propagation.walk,
                            "cross_fit": params.cross_fit,
                            "cross_fit_folds": params.cross_fit_folds,
+                           "cross_fit_repeats": params.cross_fit_repeats,
                            "cores": params.cores is not None}, "categories": {}}
     runs = [(m, None) for m in modes if m != "scribbled"] + [("scribbled", k) for k in (scribbled if "scribbled" in modes else [])]
     for cat in cats:

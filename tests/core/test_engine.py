@@ -181,13 +181,32 @@ def test_cross_fit_folds_hold_each_shape_out_once():
         cross_fit_folds(1, 4)
 
 
+def test_cross_fit_repeats_split_the_shapes_anew():
+    from scribbleseg_core.optimize import cross_fit_folds
+
+    def partition(held):
+        return sorted(tuple(h) for h in held)
+
+    for n in (3, 5, 20):
+        first, second = cross_fit_folds(n, 2, 0), cross_fit_folds(n, 2, 1)
+        assert len(second) == 2
+        np.testing.assert_array_equal(np.sort(np.concatenate(second)), np.arange(n))
+        assert partition(first) != partition(second)
+    np.testing.assert_array_equal(cross_fit_folds(6, 2, 1)[0], [0, 1, 4, 5])  # neighbours paired
+    assert cross_fit_folds(2, 2, 1) == []  # two shapes split only one way
+    assert cross_fit_folds(4, 4, 1) == []  # leave-one-out has no other split
+    assert cross_fit_folds(4, 2, 2) == []  # (i // 4) mod 2: all in one fold
+
+
 def test_cross_fit_mixes_held_out_networks_and_leaves_the_model_alone(collection):
     shapes, gts, snaps = collection
     phases = [s.phase for s in snaps]
-    assert PARAMS.cross_fit_folds == 2  # the default
-    assert phases.count("crossfit") == 2  # three scribbled shapes in two folds
+    assert (PARAMS.cross_fit_folds, PARAMS.cross_fit_repeats) == (2, 2)  # the defaults
+    assert phases.count("crossfit") == 4  # three scribbled shapes, two folds, two splits
     assert phases.index("retrain") < phases.index("crossfit") < len(phases) - 2
     assert phases[-2:] == ["retrain", "done"]
+    one = [s.phase for s in segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit_repeats=1))]
+    assert one.count("crossfit") == 2
     off = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit=0.0)))
     assert "crossfit" not in [s.phase for s in off]
     x = shapes[3].network_input(PARAMS.context_scales)
@@ -199,18 +218,28 @@ def test_cross_fit_mixes_held_out_networks_and_leaves_the_model_alone(collection
 
 def test_held_out_network_replaces_the_own_one_at_share_1(collection):
     from scribbleseg_core.network import FaceClassifier
-    from scribbleseg_core.optimize import _mix_held_out
+    from scribbleseg_core.optimize import _held_out_log_proba, _mix
 
     shapes, gts, _ = collection
     inputs = [s.network_input(PARAMS.context_scales) for s in shapes[:3]]
-    own = [np.log(np.full((len(x), len(LABELS)), 1.0 / len(LABELS))) for x in inputs]
-    logp = list(own)
-    _mix_held_out(logp, inputs, gts[:3], np.array([0]), len(LABELS), dataclasses.replace(PARAMS, cross_fit=1.0))
+    own = np.log(np.full((len(inputs[0]), len(LABELS)), 1.0 / len(LABELS)))
+    held = _held_out_log_proba(inputs, gts[:3], np.array([0]), len(LABELS), PARAMS)
+    assert list(held) == [0]  # only the held-out shape gets an opinion
     other = FaceClassifier(inputs[0].shape[1], len(LABELS), PARAMS.network)
     other.fit(inputs[1:], gts[1:3])
-    np.testing.assert_allclose(logp[0], other.log_proba(inputs[0]), atol=1e-6)
-    assert logp[1] is own[1] and logp[2] is own[2]  # only the held-out shape changes
-    assert (logp[0].argmax(1) == gts[0]).mean() >= 0.9  # learned from the other two shapes
+    np.testing.assert_allclose(held[0], other.log_proba(inputs[0]), atol=1e-6)
+    np.testing.assert_allclose(_mix(own, [held[0]], 1.0), held[0], atol=1e-9)
+    assert (held[0].argmax(1) == gts[0]).mean() >= 0.9  # learned from the other two shapes
+    assert _mix(own, [], 0.7) is own  # no held-out opinion: the own network alone
+
+
+def test_mix_averages_held_out_probabilities():
+    from scribbleseg_core.optimize import _mix
+
+    own = np.log(np.array([[0.9, 0.1]]))
+    p1, p2 = np.log(np.array([[0.2, 0.8]])), np.log(np.array([[0.6, 0.4]]))
+    mixed = np.exp(_mix(own, [p1, p2], 0.7))
+    np.testing.assert_allclose(mixed, 0.3 * np.array([[0.9, 0.1]]) + 0.7 * np.array([[0.4, 0.6]]))
 
 
 def test_cross_fit_share_is_checked(collection):
