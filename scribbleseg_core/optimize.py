@@ -104,8 +104,9 @@ class SegmentParams:
         probabilities: P_others is then the mean opinion of `cross_fit_repeats` networks that
         never saw the shape, not one split's luck. Which split a shape falls in moves Bust by
         ±0.02; two splits of 2 folds on the 12 PSB categories (cached network predictions, all
-        shapes scribbled): 0.0506 and 0.0504 each, **0.0490** averaged (better than the default
-        split on 9 of 12: Bust 0.129 → 0.120, Bird 0.062 → 0.060, Plier 0.038 → 0.036), while
+        shapes scribbled): 0.0506 and 0.0504 each, **0.0490** averaged (better than the first
+        split alone on 10 of 12: Bust 0.129 → 0.120, Bird 0.062 → 0.060, Plier 0.038 → 0.0355;
+        worse on FourLeg 0.078 → 0.079 and Table 0.0133 → 0.0136), while
         averaging the 2- and 4-fold splits gave 0.0491 for 6 trainings instead of 4. Repeats
         that cannot split the shapes anew (2 shapes) are skipped.
     init : {"propagate", "geodesic", "paper"}
