@@ -157,6 +157,24 @@ def _cmd_bench_merge(args) -> int:
     return 0 if report["verified"] else 1
 
 
+def _int_at_least(low: int):
+    """argparse type: an int no smaller than `low` (else argparse's one-line usage error)."""
+    def parse(text: str) -> int:
+        value = int(text)
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be at least {low}; got {value}")
+        return value
+    return parse
+
+
+def _fraction(text: str) -> float:
+    """argparse type: a float in [0, 1]."""
+    value = float(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must lie in [0, 1]; got {value}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="scribbleseg", description="Scribble-based segmentation of 3D shape collections."
@@ -188,23 +206,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("data", help="folder of <Category>/ folders with meshes, labels/, scribbles/")
     p.add_argument("--mode", choices=["train", "test", "both", "scribbled", "given", "all"], default="both",
                    help="both = train and test; given = train on the shapes that have scribble files, predict the rest")
-    p.add_argument("--folds", type=int, default=5, help="test mode: folds by sorted id (20 = leave-one-out)")
-    p.add_argument("--scribbled", type=int, nargs="+", default=[1, 3, 5, 10],
+    p.add_argument("--folds", type=_int_at_least(2), default=5, help="test mode: folds by sorted id (20 = leave-one-out)")
+    p.add_argument("--scribbled", type=_int_at_least(1), nargs="+", default=[1, 3, 5, 10],
                    help="scribbled mode: shapes per category that keep their scribbles")
-    p.add_argument("--coverage", type=float, default=1.0, help="keep this central fraction of every stroke")
+    p.add_argument("--coverage", type=_fraction, default=1.0, help="keep this central fraction of every stroke")
     p.add_argument("--categories", nargs="+")
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
                    help="face-level refinement (--no-refine: the paper's patch-level result)")
     p.add_argument("--seed", type=int, default=0, help="scribbled mode: which shapes keep scribbles")
-    p.add_argument("--threads", type=int, default=2, help="torch threads for training (1 when running two benchmarks at once)")
+    p.add_argument("--threads", type=_int_at_least(1), default=2, help="torch threads for training (1 when running two benchmarks at once)")
     p.add_argument("--contrast", type=float, default=None,
                    help="SDF contrast of the scribble propagation (default PropagateParams.contrast; 0 = off)")
     p.add_argument("--walk", type=float, default=None,
                    help="random-walk term of the scribble propagation (default PropagateParams.walk; 0 = off)")
-    p.add_argument("--cross-fit", type=float, default=None,
+    p.add_argument("--cross-fit", type=_fraction, default=None,
                    help="share of the held-out networks in the scribbled shapes' final propagation "
                         "(default SegmentParams.cross_fit; 0 = off)")
-    p.add_argument("--cross-fit-repeats", type=int, default=None,
+    p.add_argument("--cross-fit-repeats", type=_int_at_least(1), default=None,
                    help="splits of the shapes the cross-fitting averages over "
                         "(default SegmentParams.cross_fit_repeats; 1 = one split)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,

@@ -69,3 +69,13 @@ def _run_env(env, *args):
 
     return subprocess.run([sys.executable, "-m", "scribbleseg_core.cli", *args], capture_output=True, text=True,
                           env={**os.environ, **env})
+
+
+def test_bench_refuses_out_of_range_options_before_running(tmp_path):
+    for option, value, message in [("--cross-fit", "1.5", "must lie in [0, 1]"),
+                                   ("--cross-fit-repeats", "0", "must be at least 1"),
+                                   ("--folds", "1", "must be at least 2")]:
+        r = _run("bench", str(tmp_path), option, value, "--out", str(tmp_path / "out"))
+        assert r.returncode == 2 and "Traceback" not in r.stderr
+        assert f"argument {option}: {message}" in r.stderr
+        assert not (tmp_path / "out").exists()
