@@ -130,23 +130,29 @@ def _cmd_bench(args) -> int:
     modes = {"train": ["train"], "test": ["test"], "both": ["train", "test"], "scribbled": ["scribbled"], "given": ["given"],
              "all": ["train", "test", "scribbled"]}[args.mode]
     progress = None if args.quiet else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
-    from dataclasses import replace
-
-    from scribbleseg_core.optimize import SegmentParams
-
-    base = SegmentParams()
-    params = replace(base, network=replace(base.network, threads=args.threads),
-                     propagation=replace(base.propagation,
-                                         **({} if args.contrast is None else {"contrast": args.contrast}),
-                                         **({} if args.walk is None else {"walk": args.walk})),
-                     cores=base.cores if args.cores else None,
-                     **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
-                     **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}))
+    params = _bench_params(args)
     report = bench(root, Path(args.out), modes=modes, cats=args.categories, folds=args.folds,
                    scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed,
                    params=params, progress=progress)
     print((Path(args.out) / "report.md").read_text())
     return 0 if report["verified"] else 1
+
+
+def _bench_params(args):
+    """The engine's parameters for `bench`: the defaults, with the options given."""
+    from dataclasses import replace
+
+    from scribbleseg_core.optimize import SegmentParams
+
+    base = SegmentParams()
+    return replace(base, network=replace(base.network, threads=args.threads,
+                                         **({} if args.network_seed is None else {"seed": args.network_seed})),
+                   propagation=replace(base.propagation,
+                                       **({} if args.contrast is None else {"contrast": args.contrast}),
+                                       **({} if args.walk is None else {"walk": args.walk})),
+                   cores=base.cores if args.cores else None,
+                   **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
+                   **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}))
 
 
 def _cmd_bench_merge(args) -> int:
@@ -214,6 +220,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
                    help="face-level refinement (--no-refine: the paper's patch-level result)")
     p.add_argument("--seed", type=int, default=0, help="scribbled mode: which shapes keep scribbles")
+    p.add_argument("--network-seed", type=int, default=None,
+                   help="seed of the networks' initialization and sampling (default NetworkParams.seed); "
+                        "rerun with others to see how much a figure owes to it")
     p.add_argument("--threads", type=_int_at_least(1), default=2, help="torch threads for training (1 when running two benchmarks at once)")
     p.add_argument("--contrast", type=float, default=None,
                    help="SDF contrast of the scribble propagation (default PropagateParams.contrast; 0 = off)")

@@ -79,3 +79,17 @@ def test_bench_refuses_out_of_range_options_before_running(tmp_path):
         assert r.returncode == 2 and "Traceback" not in r.stderr
         assert f"argument {option}: {message}" in r.stderr
         assert not (tmp_path / "out").exists()
+
+
+def test_bench_options_reach_the_engine():
+    from scribbleseg_core.cli import _bench_params, build_parser
+    from scribbleseg_core.optimize import SegmentParams
+
+    parse = build_parser().parse_args
+    default = _bench_params(parse(["bench", "data", "--out", "o"]))
+    assert default.network.seed == SegmentParams().network.seed
+    assert default.cross_fit == SegmentParams().cross_fit and default.cores is not None
+    params = _bench_params(parse(["bench", "data", "--out", "o", "--network-seed", "3", "--threads", "1",
+                                  "--cross-fit", "0.5", "--no-cores", "--walk", "0"]))
+    assert (params.network.seed, params.network.threads, params.cross_fit) == (3, 1, 0.5)
+    assert params.cores is None and params.propagation.walk == 0

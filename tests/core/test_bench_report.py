@@ -43,6 +43,7 @@ def test_train_test_scribbled_report(tmp_path, planted_root):
     report = bench(planted_root, out, modes=("train", "test", "scribbled"), folds=2, scribbled=(2,), params=FAST)
     entry = report["categories"]["Planted"]
     assert report["verified"] is True
+    assert report["settings"]["network_seed"] == FAST.network.seed
     assert entry["train"]["summary"]["ri_error"] < 0.08
     assert entry["train"]["summary"]["scored_shapes"] == 4
     assert entry["test"]["summary"]["scored_shapes"] == 4  # every shape predicted once
