@@ -11,6 +11,8 @@ of the network trained on
   supervised network on the same inputs), never a result.
 
 The prediction is :func:`predict_shape` (patch graph cut, then face refinement) either way.
+``--seeds 0 1 2 3 4`` trains with each network seed and prints the mean and the standard
+deviation over seeds: how much of a figure is the seed's luck.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -27,23 +30,25 @@ sys.path.insert(0, str(ROOT))
 
 from scribbleseg_core.bench.report import load_category  # noqa: E402
 from scribbleseg_core.metrics import rand_index_error  # noqa: E402
-from scribbleseg_core.network import FaceClassifier  # noqa: E402
+from scribbleseg_core.network import FaceClassifier, NetworkParams  # noqa: E402
 from scribbleseg_core.optimize import SegmentParams, TrainedModel, predict_shape  # noqa: E402
 from scribbleseg_core.patch_features import feature_delta, fit_patch_encoder  # noqa: E402
 from scribbleseg_core.psb import categories  # noqa: E402
 from scribbleseg_core.shape import prepare_shape  # noqa: E402
 
 
-def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5) -> dict[str, float]:
+def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
+                  kinds: tuple[str, ...] = ("propagated", "truth")) -> dict[str, float]:
     """Mean unseen-shape Rand Index error per kind of training label."""
     items, names, _ = load_category(root, cat)
     k, n = len(names), len(items)
     shapes = [prepare_shape(it.mesh, it.scribbles.face_labels()) for it in items]
     inputs = [s.network_input(params.context_scales) for s in shapes]
-    train_labels = {
-        "propagated": [s.propagate(k, params.propagation) for s in shapes],  # as the engine does
-        "truth": [np.asarray(it.truth)[it.mesh.proc_to_file] for it in items],
-    }
+    train_labels = {}
+    if "propagated" in kinds:
+        train_labels["propagated"] = [s.propagate(k, params.propagation) for s in shapes]  # as the engine does
+    if "truth" in kinds:
+        train_labels["truth"] = [np.asarray(it.truth)[it.mesh.proc_to_file] for it in items]
     fold_of = np.arange(n) * folds // n
     errors = {kind: [] for kind in train_labels}
     for f in range(folds):
@@ -67,23 +72,33 @@ def main(argv=None) -> None:
     parser.add_argument("data", nargs="?", default=str(ROOT.parent / "shared" / "psb"))
     parser.add_argument("--categories", nargs="+")
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[NetworkParams().seed], help="network seeds")
+    parser.add_argument("--kinds", nargs="+", choices=["propagated", "truth"], default=["propagated", "truth"])
     args = parser.parse_args(argv)
     root = Path(args.data)
     if not root.is_dir():
         sys.exit(f"{root}: no benchmark data (expected ../shared/psb beside the project)")
-    from dataclasses import replace
-
     base = SegmentParams()
-    params = replace(base, network=replace(base.network, threads=args.threads))
+    kinds = tuple(args.kinds)
+    names = {"propagated": "trained on propagated labels", "truth": "trained on ground truth (ceiling)"}
+    spread = len(args.seeds) > 1
+    print("| category | " + " | ".join(names[k] + (" (mean ± sd over seeds)" if spread else "") for k in kinds)
+          + " | seconds |")
+    print("|---|" + "---|" * len(kinds) + "---|")
     rows = []
-    print("| category | trained on propagated labels | trained on ground truth (ceiling) | seconds |")
-    print("|---|---|---|---|")
     for cat in args.categories or categories(root):
         t = time.perf_counter()
-        r = unseen_errors(root, cat, params)
-        rows.append(r)
-        print(f"| {cat} | {r['propagated']:.3f} | {r['truth']:.3f} | {time.perf_counter() - t:.0f} |", flush=True)
-    print(f"| **average** | **{np.mean([r['propagated'] for r in rows]):.3f}** | **{np.mean([r['truth'] for r in rows]):.3f}** | |")
+        per_seed = [unseen_errors(root, cat, replace(base, network=replace(base.network, threads=args.threads, seed=seed)),
+                                  kinds=kinds) for seed in args.seeds]
+        row = {k: np.array([r[k] for r in per_seed]) for k in kinds}
+        rows.append(row)
+        print(f"| {cat} | " + " | ".join(_cell(row[k]) for k in kinds) + f" | {time.perf_counter() - t:.0f} |", flush=True)
+    # mean over categories per seed, then its mean and spread over seeds
+    print("| **average** | " + " | ".join(f"**{_cell(np.mean([r[k] for r in rows], axis=0))}**" for k in kinds) + " | |")
+
+
+def _cell(values: np.ndarray) -> str:
+    return f"{values.mean():.3f}" if len(values) == 1 else f"{values.mean():.4f} ± {values.std(ddof=1):.4f}"
 
 
 if __name__ == "__main__":
