@@ -221,8 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="face-level refinement (--no-refine: the paper's patch-level result)")
     p.add_argument("--seed", type=int, default=0, help="scribbled mode: which shapes keep scribbles")
     p.add_argument("--network-seed", type=int, default=None,
-                   help="seed of the networks' initialization and sampling (default NetworkParams.seed); "
-                        "rerun with others to see how much a figure owes to it")
+                   help="seed of the networks' initialization and face sampling, and of the patch codebook "
+                        "(default NetworkParams.seed); rerun with others to see how much a figure owes to it")
     p.add_argument("--threads", type=_int_at_least(1), default=2, help="torch threads for training (1 when running two benchmarks at once)")
     p.add_argument("--contrast", type=float, default=None,
                    help="SDF contrast of the scribble propagation (default PropagateParams.contrast; 0 = off)")
