@@ -38,11 +38,24 @@ from scribbleseg_core.shape import prepare_shape  # noqa: E402
 
 
 def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
-                  kinds: tuple[str, ...] = ("propagated", "truth")) -> dict[str, float]:
-    """Mean unseen-shape Rand Index error per kind of training label."""
+                  kinds: tuple[str, ...] = ("propagated", "truth"), seeds: tuple[int, ...] | None = None,
+                  ) -> dict[str, np.ndarray]:
+    """Mean unseen-shape Rand Index error per kind of training label, one per network seed.
+
+    The shapes, their inputs and training labels are made once; per seed (default
+    ``params.network.seed``) the patch codebook and the networks are refit, as the engine
+    seeds both from ``NetworkParams.seed``.
+
+    Returns
+    -------
+    dict
+        kind -> (len(seeds),) float64 ndarray.
+    """
+    seeds = (params.network.seed,) if seeds is None else tuple(seeds)
     items, names, _ = load_category(root, cat)
     k, n = len(names), len(items)
     shapes = [prepare_shape(it.mesh, it.scribbles.face_labels()) for it in items]
+    unscribbled = [prepare_shape(it.mesh) for it in items]  # how the held-out shapes are predicted
     inputs = [s.network_input(params.context_scales) for s in shapes]
     train_labels = {}
     if "propagated" in kinds:
@@ -50,21 +63,26 @@ def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
     if "truth" in kinds:
         train_labels["truth"] = [np.asarray(it.truth)[it.mesh.proc_to_file] for it in items]
     fold_of = np.arange(n) * folds // n
-    errors = {kind: [] for kind in train_labels}
-    for f in range(folds):
-        train = np.flatnonzero(fold_of != f)
-        encoder = fit_patch_encoder([shapes[i].X for i in train], seed=params.network.seed)
-        desc = [encoder.encode(shapes[i].X, shapes[i].area, shapes[i].patch) for i in train]
-        delta = feature_delta(desc, [shapes[i].patch_pairs for i in train])
-        for kind, labels in train_labels.items():
-            clf = FaceClassifier(inputs[0].shape[1], k, params.network)
-            clf.fit([inputs[i] for i in train], [labels[i] for i in train])
-            model = TrainedModel(clf, encoder, delta, names, params)
-            for i in np.flatnonzero(fold_of == f):
-                s = prepare_shape(items[i].mesh)
-                refined, _ = predict_shape(model, s)
-                errors[kind].append(rand_index_error(s.mesh.labels_to_file(refined), items[i].truth))
-    return {kind: float(np.mean(v)) for kind, v in errors.items()}
+    means = {kind: [] for kind in train_labels}
+    for seed in seeds:
+        run = replace(params, network=replace(params.network, seed=seed))
+        errors = {kind: [] for kind in train_labels}
+        for f in range(folds):
+            train = np.flatnonzero(fold_of != f)
+            encoder = fit_patch_encoder([shapes[i].X for i in train], seed=seed)
+            desc = [encoder.encode(shapes[i].X, shapes[i].area, shapes[i].patch) for i in train]
+            delta = feature_delta(desc, [shapes[i].patch_pairs for i in train])
+            for kind, labels in train_labels.items():
+                clf = FaceClassifier(inputs[0].shape[1], k, run.network)
+                clf.fit([inputs[i] for i in train], [labels[i] for i in train])
+                model = TrainedModel(clf, encoder, delta, names, run)
+                for i in np.flatnonzero(fold_of == f):
+                    s = unscribbled[i]
+                    refined, _ = predict_shape(model, s)
+                    errors[kind].append(rand_index_error(s.mesh.labels_to_file(refined), items[i].truth))
+        for kind, v in errors.items():
+            means[kind].append(float(np.mean(v)))
+    return {kind: np.array(v) for kind, v in means.items()}
 
 
 def main(argv=None) -> None:
@@ -79,6 +97,7 @@ def main(argv=None) -> None:
     if not root.is_dir():
         sys.exit(f"{root}: no benchmark data (expected ../shared/psb beside the project)")
     base = SegmentParams()
+    params = replace(base, network=replace(base.network, threads=args.threads))
     kinds = tuple(args.kinds)
     names = {"propagated": "trained on propagated labels", "truth": "trained on ground truth (ceiling)"}
     spread = len(args.seeds) > 1
@@ -88,9 +107,7 @@ def main(argv=None) -> None:
     rows = []
     for cat in args.categories or categories(root):
         t = time.perf_counter()
-        per_seed = [unseen_errors(root, cat, replace(base, network=replace(base.network, threads=args.threads, seed=seed)),
-                                  kinds=kinds) for seed in args.seeds]
-        row = {k: np.array([r[k] for r in per_seed]) for k in kinds}
+        row = unseen_errors(root, cat, params, kinds=kinds, seeds=args.seeds)
         rows.append(row)
         print(f"| {cat} | " + " | ".join(_cell(row[k]) for k in kinds) + f" | {time.perf_counter() - t:.0f} |", flush=True)
     # mean over categories per seed, then its mean and spread over seeds
