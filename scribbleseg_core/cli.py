@@ -149,7 +149,8 @@ def _bench_params(args):
                                          **({} if args.network_seed is None else {"seed": args.network_seed})),
                    propagation=replace(base.propagation,
                                        **({} if args.contrast is None else {"contrast": args.contrast}),
-                                       **({} if args.walk is None else {"walk": args.walk})),
+                                       **({} if args.walk is None else {"walk": args.walk}),
+                                       **({} if args.convex is None else {"convex": args.convex})),
                    cores=base.cores if args.cores else None,
                    **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
                    **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}))
@@ -228,6 +229,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="SDF contrast of the scribble propagation (default PropagateParams.contrast; 0 = off)")
     p.add_argument("--walk", type=float, default=None,
                    help="random-walk term of the scribble propagation (default PropagateParams.walk; 0 = off)")
+    p.add_argument("--convex", type=_fraction, default=None,
+                   help="weight of convex creases against concave ones in the scribble propagation's smoothness "
+                        "(default PropagateParams.convex; 0.1 = the engine before session 11)")
     p.add_argument("--cross-fit", type=_fraction, default=None,
                    help="share of the held-out networks in the scribbled shapes' final propagation "
                         "(default SegmentParams.cross_fit; 0 = off)")

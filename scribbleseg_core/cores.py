@@ -18,13 +18,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.sparse.csgraph import dijkstra
 
-from scribbleseg_core.dual_graph import DualGraph
+from scribbleseg_core.dual_graph import CONVEX_FACTOR, DualGraph
 from scribbleseg_core.propagate import PropagateParams, propagate_scribbles
 from scribbleseg_core.topology import label_components
 
 
 def _core_propagation() -> PropagateParams:
-    return PropagateParams(distance=0.0, smoothness=64.0, walk=0.0)
+    return PropagateParams(distance=0.0, smoothness=64.0, walk=0.0, convex=CONVEX_FACTOR)
 
 
 @dataclass(frozen=True)

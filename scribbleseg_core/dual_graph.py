@@ -27,31 +27,40 @@ class DualGraph:
         Length of the shared mesh edge.
     centroid_dist : (q,) float64 ndarray
         Distance between the two face centroids.
-    concavity : (q,) float64 ndarray
-        ``1 - cos θ`` of the dihedral angle θ between the normals when the crease is
-        concave, ``CONVEX_FACTOR · (1 - cos θ)`` when convex; in [0, 2].
+    bend : (q,) float64 ndarray
+        ``1 - cos θ`` of the dihedral angle θ between the two normals, in [0, 2].
+    concave : (q,) bool ndarray
+        Whether the crease is concave (a valley) rather than convex (a ridge).
     num_faces : int
     """
 
     pairs: np.ndarray
     length: np.ndarray
     centroid_dist: np.ndarray
-    concavity: np.ndarray
+    bend: np.ndarray
+    concave: np.ndarray
     num_faces: int
 
+    def concavity(self, convex: float = CONVEX_FACTOR) -> np.ndarray:
+        """The bend where the crease is concave, ``convex · bend`` where it is convex;
+        (q,) float64 in [0, 2]."""
+        return np.where(self.concave, self.bend, convex * self.bend)
+
     def crease_distance(self, delta: float = 0.5) -> np.ndarray:
-        """Katz–Tal arc length: ``δ·geo/mean(geo) + (1-δ)·ang/mean(ang)``, (q,) float64."""
+        """Katz–Tal arc length: ``δ·geo/mean(geo) + (1-δ)·ang/mean(ang)``, (q,) float64,
+        with ``ang`` the :meth:`concavity` at the default convex factor."""
         geo = self.centroid_dist / max(self.centroid_dist.mean(), 1e-300)
-        ang_mean = self.concavity.mean()
-        ang = self.concavity / ang_mean if ang_mean > 0 else np.zeros_like(geo)
+        concavity = self.concavity()
+        ang_mean = concavity.mean()
+        ang = concavity / ang_mean if ang_mean > 0 else np.zeros_like(geo)
         return delta * geo + (1 - delta) * ang + 1e-12
 
-    def crease_potts_weights(self, smoothness: float, crease: float) -> np.ndarray:
+    def crease_potts_weights(self, smoothness: float, crease: float, convex: float = CONVEX_FACTOR) -> np.ndarray:
         """Potts weight per face pair, ``smoothness · (ℓ / mean ℓ) · exp(−concavity /
-        crease)``: cutting along a concave crease is cheap, across a smooth or convex
-        region dear; (q,) float64."""
+        crease)`` with the :meth:`concavity` at factor `convex`: cutting along a concave
+        crease is cheap, across a smooth or convex region dear; (q,) float64."""
         ell = self.length / max(self.length.mean(), 1e-300)
-        return smoothness * ell * np.exp(-self.concavity / crease)
+        return smoothness * ell * np.exp(-self.concavity(convex) / crease)
 
     @cached_property
     def crease_matrix(self) -> sp.csr_matrix:
@@ -90,5 +99,4 @@ def dual_graph(V: np.ndarray, F: np.ndarray) -> DualGraph:
     bend = 1.0 - cos
     # concave when the neighbour's centroid lies above this face's tangent plane
     concave = np.einsum("ij,ij->i", C[j] - C[i], N[i]) > 1e-12 * np.maximum(length, 1e-300)
-    concavity = np.where(concave, bend, CONVEX_FACTOR * bend)
-    return DualGraph(pairs, length, np.linalg.norm(C[i] - C[j], axis=1), concavity, F.shape[0])
+    return DualGraph(pairs, length, np.linalg.norm(C[i] - C[j], axis=1), bend, concave, F.shape[0])

@@ -18,6 +18,7 @@ import numpy as np
 from scribbleseg_core import __version__
 from scribbleseg_core.atomic import atomic_write_bytes, atomic_write_text
 from scribbleseg_core.cores import CoreParams
+from scribbleseg_core.dual_graph import CONVEX_FACTOR
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.features import FEATURE_VERSION, NUM_FEATURES
 from scribbleseg_core.network import FaceClassifier, NetworkParams
@@ -135,5 +136,6 @@ def _core_params(p: dict) -> CoreParams | None:
 
 
 def _propagate_params(d: dict) -> PropagateParams:
-    """Saved propagation parameters; files from before the random-walk term ran without it."""
-    return PropagateParams(**{"walk": 0.0, **d})
+    """Saved propagation parameters; files from before the random-walk term ran without it,
+    and those from before the convex-crease weight used the dual graph's default."""
+    return PropagateParams(**{"walk": 0.0, "convex": CONVEX_FACTOR, **d})

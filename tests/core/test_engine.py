@@ -9,12 +9,14 @@ import pytest
 
 from scribbleseg_core.cache import ArrayCache
 from scribbleseg_core.cores import CoreParams
+from scribbleseg_core.dual_graph import CONVEX_FACTOR
 from scribbleseg_core.energy import scribble_unary
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.graphcut import INF
 from scribbleseg_core.model_io import load_model, save_model
 from scribbleseg_core.network import NetworkParams
 from scribbleseg_core.optimize import SegmentParams, predict_shape, segment_collection
+from scribbleseg_core.propagate import PropagateParams
 from scribbleseg_core.shape import prepare_shape
 from tests.core.planted import LABELS, creature, stroke_faces
 
@@ -110,11 +112,14 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     assert load_model(tmp_path / "m").params.cores == CoreParams()
     save_model(tmp_path / "off", dataclasses.replace(model, params=dataclasses.replace(model.params, cores=None)))
     assert load_model(tmp_path / "off").params.cores is None
-    # the random-walk weight travels too; a model saved before it existed ran without it
+    # the random-walk and convex-crease weights travel too; a model saved before they
+    # existed ran without the walk and with the dual graph's convex factor
     assert back.params.propagation == model.params.propagation and back.params.propagation.walk > 0
-    old_prop = {k: v for k, v in meta["params"]["propagation"].items() if k != "walk"}
+    assert back.params.propagation.convex == PropagateParams().convex != CONVEX_FACTOR
+    old_prop = {k: v for k, v in meta["params"]["propagation"].items() if k not in ("walk", "convex")}
     (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "params": {**meta["params"], "propagation": old_prop}}))
-    assert load_model(tmp_path / "m").params.propagation.walk == 0.0
+    old = load_model(tmp_path / "m").params.propagation
+    assert (old.walk, old.convex) == (0.0, CONVEX_FACTOR)
     # so does the cross-fitting share; a model saved before it existed ran without it
     assert back.params.cross_fit == model.params.cross_fit > 0
     (tmp_path / "m" / "model.json").write_text(

@@ -108,7 +108,8 @@ def test_random_walk_leaves_unscribbled_components_at_zero(planted):
     # two copies of the mesh side by side, strokes on the first copy only
     m = graph.num_faces
     two = DualGraph(np.vstack([graph.pairs, graph.pairs + m]), np.r_[graph.length, graph.length],
-                    np.r_[graph.centroid_dist, graph.centroid_dist], np.r_[graph.concavity, graph.concavity], 2 * m)
+                    np.r_[graph.centroid_dist, graph.centroid_dist], np.r_[graph.bend, graph.bend],
+                    np.r_[graph.concave, graph.concave], 2 * m)
     P = random_walk_probabilities(two, np.r_[scribble, np.full(m, -1)], len(LABELS), crease=0.03)
     assert np.all(P[m:] == 0)
     np.testing.assert_allclose(P[:m], random_walk_probabilities(graph, scribble, len(LABELS), crease=0.03), atol=1e-6)
@@ -129,3 +130,39 @@ def test_walk_term_joins_the_network_term_only(planted):
     np.testing.assert_array_equal(propagate_scribbles(graph, scribble, k, params=PropagateParams(walk=1.0)), plain)
     np.testing.assert_array_equal(
         propagate_scribbles(graph, scribble, k, log_proba=flat, params=PropagateParams(walk=1.0, network=0.0)), plain)
+
+
+def _folded_strip(direction: float, at: int = 12):
+    """The strip of :func:`_strip` folded by 90° along x = `at`: up (a concave crease) for
+    `direction` +1, down (a convex ridge) for -1. Returns V, F and each face's unfolded x."""
+    V, F, x = _strip()
+    beyond = V[:, 0] > at
+    V[beyond, 2] = direction * (V[beyond, 0] - at)
+    V[beyond, 0] = at
+    return V, F, x
+
+
+def test_concave_creases_stop_labels_whatever_the_convex_weight():
+    V, F, x = _folded_strip(+1)
+    graph = dual_graph(V, F)
+    crease = graph.bend > 0.5
+    assert crease.any() and graph.concave[crease].all()
+    scribble = np.where(x < 2, 0, np.where(x > 38, 1, -1))  # midway between them: x = 20
+    for convex in (0.0, 0.02, 0.1):
+        labels = propagate_scribbles(graph, scribble, 2, params=PropagateParams(convex=convex))
+        np.testing.assert_array_equal(labels, (x > 12).astype(int))
+
+
+def test_convex_ridges_are_cheap_to_cut_only_with_a_large_convex_weight():
+    V, F, x = _folded_strip(-1)
+    graph = dual_graph(V, F)
+    ridge = graph.bend > 0.5
+    assert ridge.any() and not graph.concave[ridge].any()
+    np.testing.assert_allclose(graph.concavity(0.02)[ridge], 0.02 * graph.bend[ridge])
+    np.testing.assert_array_equal(graph.concavity(0.02)[graph.concave], graph.bend[graph.concave])
+    same_length = np.isclose(graph.length, graph.length[ridge][0])
+    flat = graph.crease_potts_weights(16.0, 0.03, 0.02)[(graph.bend < 1e-9) & same_length].max()
+    assert PropagateParams().convex == 0.02
+    # 90° ridge: exp(-0.02 / 0.03) ≈ 0.51 of a flat edge now, exp(-0.1 / 0.03) ≈ 0.036 before
+    np.testing.assert_allclose(graph.crease_potts_weights(16.0, 0.03, 0.02)[ridge] / flat, np.exp(-0.02 / 0.03), rtol=1e-6)
+    np.testing.assert_allclose(graph.crease_potts_weights(16.0, 0.03, 0.1)[ridge] / flat, np.exp(-0.1 / 0.03), rtol=1e-6)
