@@ -230,7 +230,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--walk", type=float, default=None,
                    help="random-walk term of the scribble propagation (default PropagateParams.walk; 0 = off)")
     p.add_argument("--convex", type=_fraction, default=None,
-                   help="weight of convex creases against concave ones in the scribble propagation's smoothness "
+                   help="weight of convex creases against concave ones in the scribble propagation's smoothness and walk "
                         "(default PropagateParams.convex; 0.1 = the engine before session 11)")
     p.add_argument("--cross-fit", type=_fraction, default=None,
                    help="share of the held-out networks in the scribbled shapes' final propagation "
