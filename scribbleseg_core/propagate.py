@@ -35,7 +35,8 @@ class PropagateParams:
     out): distance 0.1 beat 0.3, 0.5 and 2 (Chair 0.016 vs 0.041 at 0.3); over crease
     0.01–0.15 and smoothness 1–64, crease 0.03 with smoothness 16 was best (mean 0.064;
     0.075 at crease 0.05 with smoothness 4). Categories differ: Bust wants smoothness 48
-    (0.121), Plier 8 (0.055); convex creases counting 0.1 of concave ones beat 0.3 and 1.
+    (0.121), Plier 8 (0.055); convex creases counting 0.1 of concave ones beat 0.3 and 1
+    (0.02 came later; see ``convex`` below).
     The network term helps only when the network was trained on propagated labels: with
     a network trained on the paper's patch-level labels it made 5 of 6 categories worse
     (Mech 0.028 → 0.044), with one trained on these labels weight 0.5 beat 0, 0.05, 0.1 and
