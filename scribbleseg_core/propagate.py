@@ -80,10 +80,10 @@ class PropagateParams:
     label ran over the fillet at its foot and onto the neighbouring box's top face, up to
     the box's edge, and the network learned it (propagated labels 98.3% right, yet the
     unseen shapes 0.139 against 0.077 from ground-truth training labels, mean of 3
-    seeds). At 0.02 (a 90° ridge 0.51 of a smooth edge) the Mech labels are 99.2% right. Measured on unseen shapes
-    (the networks trained on these labels, seed 0; fit, not held out), against 0.1: Mech
-    0.143 → 0.078, Plier 0.0585 → 0.0588, Vase 0.144 → 0.146, Octopus 0.031 → 0.036; also
-    lowering it in the distance term's metric gave Mech 0.075 but Plier 0.072 and Vase
+    seeds). At 0.02 (a 90° ridge 0.51 of a smooth edge) the Mech labels are 99.2% right.
+    Measured on unseen shapes (the networks trained on these labels, seed 0; fit, not
+    held out), against 0.1: Mech 0.143 → 0.078, Plier 0.0585 → 0.0588, Vase 0.144 →
+    0.146, Octopus 0.031 → 0.036; also lowering it in the distance term's metric gave Mech 0.075 but Plier 0.072 and Vase
     0.158, so it stays in the smoothness only; 0.05 gave Mech 0.137, almost no gain, and 0
     gave 0.0921 on all 12 categories against 0.0918 at 0.02 (Mech 0.084, Bird 0.096). Full
     PSB benchmark against 0.1: scribbled shapes 0.0490 → 0.0469 (Mech 0.029 → 0.010, Bird
