@@ -153,7 +153,8 @@ def _bench_params(args):
                                        **({} if args.convex is None else {"convex": args.convex})),
                    cores=base.cores if args.cores else None,
                    **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
-                   **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}))
+                   **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}),
+                   **({} if args.stroke_network is None else {"stroke_network": args.stroke_network}))
 
 
 def _cmd_bench_merge(args) -> int:
@@ -238,6 +239,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cross-fit-repeats", type=_int_at_least(1), default=None,
                    help="splits of the shapes the cross-fitting averages over "
                         "(default SegmentParams.cross_fit_repeats; 1 = one split)")
+    p.add_argument("--stroke-network", type=float, default=None,
+                   help="weight of the stroke network in the propagation whose labels the network is retrained on "
+                        "(default SegmentParams.stroke_network; 0 = the engine before session 12)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

@@ -251,3 +251,35 @@ def test_cross_fit_share_is_checked(collection):
     shapes, _, _ = collection
     with pytest.raises(ValueError, match="cross_fit"):
         next(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit=1.5)))
+    with pytest.raises(ValueError, match="stroke_network"):
+        next(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, stroke_network=-0.1)))
+
+
+def test_stroke_network_guides_the_training_labels(collection):
+    """The retraining targets: the propagation plus the −log-probabilities of a network trained
+    on the stroke faces only. Strokes keep their labels; weight 0 is the propagation alone; a
+    large weight makes the labels follow that network where no stroke holds them."""
+    from scribbleseg_core.network import FaceClassifier
+    from scribbleseg_core.optimize import _stroke_guided_labels
+
+    shapes, gts, _ = collection
+    trio, k = shapes[:3], len(LABELS)
+    inputs = [s.network_input(PARAMS.context_scales) for s in trio]
+    guided = _stroke_guided_labels(trio, inputs, k, PARAMS)
+    for s, y, gt in zip(trio, guided, gts):
+        sel = s.scribble >= 0
+        np.testing.assert_array_equal(y[sel], s.scribble[sel])
+        assert (y == gt).mean() >= 0.95
+    plain = [s.propagate(k, PARAMS.propagation) for s in trio]
+    off = _stroke_guided_labels(trio, inputs, k, dataclasses.replace(PARAMS, stroke_network=0.0))
+    for a, b in zip(off, plain):
+        np.testing.assert_array_equal(a, b)
+    net = FaceClassifier(inputs[0].shape[1], k, PARAMS.network)
+    net.fit(inputs, [s.scribble for s in trio])  # the stroke network: stroke faces only
+    vote = [net.log_proba(x).argmax(1) for x in inputs]
+    strong = _stroke_guided_labels(trio, inputs, k, dataclasses.replace(PARAMS, stroke_network=50.0))
+
+    def agreement(labels):
+        return np.mean([(y == v).mean() for y, v in zip(labels, vote)])
+
+    assert agreement(strong) > agreement(plain) and agreement(strong) >= 0.97
