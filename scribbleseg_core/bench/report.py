@@ -182,6 +182,7 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
                            "cross_fit_folds": params.cross_fit_folds,
                            "cross_fit_repeats": params.cross_fit_repeats,
                            "stroke_network": params.stroke_network,
+                           "stroke_network_min_accuracy": params.stroke_network_min_accuracy,
                            "cores": params.cores is not None,
                            "network_seed": params.network.seed}, "categories": {}}
     runs = [(m, None) for m in modes if m != "scribbled"] + [("scribbled", k) for k in (scribbled if "scribbled" in modes else [])]
