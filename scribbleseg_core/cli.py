@@ -242,7 +242,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stroke-network", type=float, default=None,
                    help="weight of the stroke network in the propagation whose labels the network is retrained on, "
                         "where its held-out accuracy on the strokes reaches SegmentParams.stroke_network_min_accuracy "
-                        "(default SegmentParams.stroke_network; 0 = the engine before session 12)")
+                        "(default SegmentParams.stroke_network, 0 = off; 0.05 = the experiment of session 12)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

@@ -128,7 +128,11 @@ class SegmentParams:
         the big box "small box", Vase 0.146 → 0.159, Bust 0.300 → 0.307, Plier 0.059 →
         0.061, Glasses 0.040 → 0.041); 0.1 made Mech worse still (0.109). With network seed 1
         the same change was neutral on the mean (0.0901 either way): Bust 0.289 → 0.319 and
-        Vase 0.138 → 0.162 ate the gains. 0 turns it off.
+        Vase 0.138 → 0.162 ate the gains. Off by default (0) until the gated version below
+        has a full benchmark run: a partial one (session 12, weight 0.05) made the scribbled
+        shapes of Plier worse (0.035 → 0.048) and Octopus (0.032 → 0.034), where the gate is
+        on, while unseen Chair improved (0.024 → 0.018). ``bench --stroke-network 0.05``
+        measures it.
     stroke_network_min_accuracy : float
         Use the stroke network only where it carries over between shapes: its held-out
         accuracy on the strokes (:func:`stroke_network_accuracy`, networks trained on the
@@ -161,7 +165,7 @@ class SegmentParams:
     cross_fit: float = 0.7
     cross_fit_folds: int = 2
     cross_fit_repeats: int = 2
-    stroke_network: float = 0.05
+    stroke_network: float = 0.0
     stroke_network_min_accuracy: float = 0.8
 
 

@@ -268,10 +268,10 @@ def test_stroke_network_guides_the_training_labels(collection):
     inputs = [s.network_input(PARAMS.context_scales) for s in trio]
     accuracy = stroke_network_accuracy(trio, inputs, k, PARAMS)
     assert 0.5 <= accuracy <= 1.0  # six stroke faces per part on three shapes: some carry over
-    just = dataclasses.replace(PARAMS, stroke_network_min_accuracy=accuracy)
-    above = dataclasses.replace(PARAMS, stroke_network_min_accuracy=accuracy + 1e-6)
+    just = dataclasses.replace(PARAMS, stroke_network=0.05, stroke_network_min_accuracy=accuracy)
+    above = dataclasses.replace(just, stroke_network_min_accuracy=accuracy + 1e-6)
     assert _stroke_guided_labels(trio, inputs, k, above) is None  # falls short: the propagation alone
-    assert _stroke_guided_labels(trio, inputs, k, dataclasses.replace(just, stroke_network=0.0)) is None
+    assert _stroke_guided_labels(trio, inputs, k, PARAMS) is None  # off by default
     assert np.isnan(stroke_network_accuracy(trio[:1], inputs[:1], k, PARAMS))
     assert _stroke_guided_labels(trio[:1], inputs[:1], k, just) is None  # one shape: nothing to check it on
     guided = _stroke_guided_labels(trio, inputs, k, just)
