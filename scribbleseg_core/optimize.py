@@ -396,14 +396,12 @@ def stroke_network_accuracy(shapes, inputs, k: int, params: SegmentParams) -> fl
     only, never a propagated label. ``nan`` with fewer than 2 shapes."""
     if len(shapes) < 2:
         return float("nan")
+    strokes = [s.scribble for s in shapes]
     scores = []
     for held in cross_fit_folds(len(shapes), 2):
-        others = np.setdiff1d(np.arange(len(shapes)), held)
-        clf = FaceClassifier(inputs[0].shape[1], k, params.network)
-        clf.fit([inputs[i] for i in others], [shapes[i].scribble for i in others])
-        for i in held:
-            painted = shapes[i].scribble >= 0
-            scores.append(float((clf.log_proba(inputs[i][painted]).argmax(1) == shapes[i].scribble[painted]).mean()))
+        for i, logp in _held_out_log_proba(inputs, strokes, held, k, params).items():
+            painted = strokes[i] >= 0
+            scores.append(float((logp[painted].argmax(1) == strokes[i][painted]).mean()))
     return float(np.mean(scores))
 
 
