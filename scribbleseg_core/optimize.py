@@ -111,9 +111,10 @@ class SegmentParams:
         averaging the 2- and 4-fold splits gave 0.0491 for 6 trainings instead of 4. Repeats
         that cannot split the shapes anew (2 shapes) are skipped.
     stroke_network : float
-        With `refine`: the labels the network is retrained on (the model used on unseen
-        shapes, and the cross-fitting's targets) are the scribble propagation plus this
-        weight times a *stroke network*'s −log-probabilities: a network trained on the
+        With `refine` and `retrain`: the model handed on for unseen shapes is a network
+        trained on the scribble propagation plus this weight times a *stroke network*'s
+        −log-probabilities (the scribbled shapes' own labels, and the cross-fitting, are
+        left as they are without it): a network trained on the
         stroke faces of all scribbled shapes only, so it has learned what each part looks
         like across the collection, yet never a propagated label. It moves boundaries the
         creases and the distance to the strokes leave open: on PSB Bird the wing's label
@@ -325,9 +326,6 @@ def segment_collection(
         # cleaner labels, then propagate again with the network's log-probabilities
         t = time.perf_counter()
         faces = propagated or [s.propagate(k, params.propagation) for s in shapes]
-        guided = _stroke_guided_labels(shapes, inputs, k, params)
-        if guided is not None:
-            faces = guided
         yield Snapshot(it, "refine", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
         if params.retrain:
             t = time.perf_counter()
@@ -348,6 +346,15 @@ def segment_collection(
                     logp = [_mix(lp, others, params.cross_fit) for lp, others in zip(logp, held_out)]
                 faces = [s.propagate(k, params.propagation, lp) for s, lp in zip(shapes, logp)]
             yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
+            t = time.perf_counter()
+            guided = _stroke_guided_labels(shapes, inputs, k, params)
+            if guided is not None:  # the model for unseen shapes learns the guided labels
+                if params.retrain_near is not None:
+                    guided = _near_strokes(shapes, guided, k, params.retrain_near)
+                unseen = FaceClassifier(inputs[0].shape[1], k, params.network)
+                unseen.fit(inputs, guided)
+                model = replace(model, classifier=unseen)
+                yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
     yield Snapshot(it, "done", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t0, model)
 
 

@@ -256,7 +256,7 @@ def test_cross_fit_share_is_checked(collection):
 
 
 def test_stroke_network_guides_the_training_labels(collection):
-    """The retraining targets: the propagation plus the −log-probabilities of a network trained
+    """The labels the model for unseen shapes learns: the propagation plus the −log-probabilities of a network trained
     on the stroke faces only. Strokes keep their labels; weight 0, a single shape or a stroke
     network whose held-out accuracy on the strokes falls short leave the propagation alone; a
     large weight makes the labels follow that network where no stroke holds them."""
@@ -289,3 +289,25 @@ def test_stroke_network_guides_the_training_labels(collection):
         return np.mean([(y == v).mean() for y, v in zip(labels, vote)])
 
     assert agreement(strong) > agreement(plain) and agreement(strong) >= 0.97
+
+
+def test_stroke_network_trains_only_the_model_for_unseen_shapes(collection):
+    """With the stroke network on (gate open), the scribbled shapes' labels are those of the
+    engine without it, and the model handed on for unseen shapes is a network trained on the
+    guided labels."""
+    from scribbleseg_core.network import FaceClassifier
+    from scribbleseg_core.optimize import _stroke_guided_labels
+
+    shapes, _, snaps = collection
+    on = dataclasses.replace(PARAMS, stroke_network=0.05, stroke_network_min_accuracy=0.0)
+    final = list(segment_collection(shapes, LABELS, on))[-1]
+    for a, b in zip(final.labels, snaps[-1].labels):
+        np.testing.assert_array_equal(a, b)
+    trio, k = shapes[:3], len(LABELS)
+    inputs = [s.network_input(PARAMS.context_scales) for s in trio]
+    guided = _stroke_guided_labels(trio, inputs, k, on)
+    reference = FaceClassifier(inputs[0].shape[1], k, PARAMS.network)
+    reference.fit(inputs, guided)
+    x = shapes[3].network_input(PARAMS.context_scales)
+    np.testing.assert_allclose(final.model.classifier.log_proba(x), reference.log_proba(x), atol=1e-5)
+    assert not np.allclose(snaps[-1].model.classifier.log_proba(x), reference.log_proba(x), atol=1e-3)
