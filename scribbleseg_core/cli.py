@@ -183,6 +183,14 @@ def _fraction(text: str) -> float:
     return value
 
 
+def _non_negative(text: str) -> float:
+    """argparse type: a float ≥ 0."""
+    value = float(text)
+    if not value >= 0.0:  # nan too
+        raise argparse.ArgumentTypeError(f"must not be negative; got {value}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="scribbleseg", description="Scribble-based segmentation of 3D shape collections."
@@ -239,10 +247,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cross-fit-repeats", type=_int_at_least(1), default=None,
                    help="splits of the shapes the cross-fitting averages over "
                         "(default SegmentParams.cross_fit_repeats; 1 = one split)")
-    p.add_argument("--stroke-network", type=float, default=None,
-                   help="weight of the stroke network in the propagation whose labels the network is retrained on, "
+    p.add_argument("--stroke-network", type=_non_negative, default=None,
+                   help="weight of the stroke network in the labels the model for unseen shapes is trained on, "
                         "where its held-out accuracy on the strokes reaches SegmentParams.stroke_network_min_accuracy "
-                        "(default SegmentParams.stroke_network, 0 = off; 0.05 = the experiment of session 12)")
+                        "(default SegmentParams.stroke_network; 0 = off, the engine before session 13)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

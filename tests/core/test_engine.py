@@ -271,7 +271,7 @@ def test_stroke_network_guides_the_training_labels(collection):
     just = dataclasses.replace(PARAMS, stroke_network=0.05, stroke_network_min_accuracy=accuracy)
     above = dataclasses.replace(just, stroke_network_min_accuracy=accuracy + 1e-6)
     assert _stroke_guided_labels(trio, inputs, k, above) is None  # falls short: the propagation alone
-    assert _stroke_guided_labels(trio, inputs, k, PARAMS) is None  # off by default
+    assert _stroke_guided_labels(trio, inputs, k, dataclasses.replace(just, stroke_network=0.0)) is None  # off
     assert np.isnan(stroke_network_accuracy(trio[:1], inputs[:1], k, PARAMS))
     assert _stroke_guided_labels(trio[:1], inputs[:1], k, just) is None  # one shape: nothing to check it on
     guided = _stroke_guided_labels(trio, inputs, k, just)
@@ -296,7 +296,7 @@ def test_stroke_network_trains_only_the_model_for_unseen_shapes(collection):
     engine without it, and the model handed on for unseen shapes is a network trained on the
     guided labels."""
     from scribbleseg_core.network import FaceClassifier
-    from scribbleseg_core.optimize import _stroke_guided_labels
+    from scribbleseg_core.optimize import _stroke_guided_labels, stroke_network_accuracy
 
     shapes, _, snaps = collection
     on = dataclasses.replace(PARAMS, stroke_network=0.05, stroke_network_min_accuracy=0.0)
@@ -305,6 +305,7 @@ def test_stroke_network_trains_only_the_model_for_unseen_shapes(collection):
         np.testing.assert_array_equal(a, b)
     trio, k = shapes[:3], len(LABELS)
     inputs = [s.network_input(PARAMS.context_scales) for s in trio]
+    assert stroke_network_accuracy(trio, inputs, k, PARAMS) < PARAMS.stroke_network_min_accuracy  # the fixture's gate was shut
     guided = _stroke_guided_labels(trio, inputs, k, on)
     reference = FaceClassifier(inputs[0].shape[1], k, PARAMS.network)
     reference.fit(inputs, guided)
