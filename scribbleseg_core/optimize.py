@@ -121,7 +121,7 @@ class SegmentParams:
         front of the body, which it joins with no crease, and on Human the upper leg's label
         ran up the hips and an unstroked thigh took the shin's label (training labels 93.4 →
         95.7% and 87.9 → 91.4% face-correct, area-weighted). Full PSB benchmark, unseen
-        shapes (5 folds, seed 0, both runs on one machine): 0 / 0.05 gave 0.0915 / **0.0885**
+        shapes (5 folds, seed 0, both runs on one machine): 0 / 0.05 gave 0.0916 / **0.0885**
         (Armadillo 0.062 → 0.048, Bird 0.093 → 0.081, Human 0.086 → 0.077; worse: Plier 0.058
         → 0.061, Octopus 0.034 → 0.035, FourLeg 0.149 → 0.150); with network seed 1 (the
         harness that reproduces the benchmark) about 0.090 → 0.085. Scribbled shapes are
