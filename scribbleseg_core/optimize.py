@@ -322,7 +322,7 @@ def segment_collection(
         yield Snapshot(it, "refine", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
         if params.retrain:
             t = time.perf_counter()
-            targets = faces if params.retrain_near is None else _near_strokes(shapes, faces, k, params.retrain_near)
+            targets = _near_strokes(shapes, faces, k, params.retrain_near)
             clf.fit(inputs, targets)
             if params.propagation.network > 0:
                 logp = [clf.log_proba(x) for x in inputs]
@@ -342,10 +342,8 @@ def segment_collection(
             t = time.perf_counter()
             guided = _stroke_guided_labels(shapes, inputs, k, params)
             if guided is not None:  # the model for unseen shapes learns the guided labels
-                if params.retrain_near is not None:
-                    guided = _near_strokes(shapes, guided, k, params.retrain_near)
                 unseen = FaceClassifier(inputs[0].shape[1], k, params.network)
-                unseen.fit(inputs, guided)
+                unseen.fit(inputs, _near_strokes(shapes, guided, k, params.retrain_near))
                 model = replace(model, classifier=unseen)
                 yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
     yield Snapshot(it, "done", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t0, model)
@@ -442,9 +440,12 @@ def _mix(own: np.ndarray, held_out: list[np.ndarray], a: float) -> np.ndarray:
         return np.logaddexp(np.log1p(-a) + own, np.log(a) + others)
 
 
-def _near_strokes(shapes, faces, k: int, quantile: float) -> list[np.ndarray]:
+def _near_strokes(shapes, faces, k: int, quantile: float | None) -> list[np.ndarray]:
     """`faces` labels kept where the face is within `quantile` of its shape's distances
-    to the nearest stroke, -1 (not trained on) elsewhere."""
+    to the nearest stroke, -1 (not trained on) elsewhere; `faces` as they are when
+    `quantile` is None (``SegmentParams.retrain_near`` off)."""
+    if quantile is None:
+        return faces
     out = []
     for s, f in zip(shapes, faces):
         near = scribble_distances(s.graph, s.scribble, k).min(axis=1)

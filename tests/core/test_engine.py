@@ -256,8 +256,9 @@ def test_cross_fit_share_is_checked(collection):
 
 
 def test_stroke_network_guides_the_training_labels(collection):
-    """The labels the model for unseen shapes learns: the propagation plus the −log-probabilities of a network trained
-    on the stroke faces only. Strokes keep their labels; weight 0, a single shape or a stroke
+    """The labels the model for unseen shapes learns: the propagation plus the
+    −log-probabilities of a network trained on the stroke faces only. Strokes keep their
+    labels; weight 0, a single shape or a stroke
     network whose held-out accuracy on the strokes falls short leave the propagation alone; a
     large weight makes the labels follow that network where no stroke holds them."""
     from scribbleseg_core.network import FaceClassifier
