@@ -123,8 +123,10 @@ class SegmentParams:
         95.7% and 87.9 → 91.4% face-correct, area-weighted). Full PSB benchmark, unseen
         shapes (5 folds, seed 0, both runs on one machine): 0 / 0.05 gave 0.0916 / **0.0885**
         (Armadillo 0.062 → 0.048, Bird 0.093 → 0.081, Human 0.086 → 0.077; worse: Plier 0.058
-        → 0.061, Octopus 0.034 → 0.035, FourLeg 0.149 → 0.150); with network seed 1 about
-        0.090 → 0.087 (six categories benchmarked, six from the harness). Scribbled shapes are
+        → 0.061, Octopus 0.034 → 0.035, FourLeg 0.149 → 0.150); with network seed 1 0.090 →
+        0.0867. With few painted shapes it is mixed (README, *A few painted shapes*: 3 shapes
+        0.149 → 0.154, 5 shapes 0.118 → 0.120, 10 shapes 0.108 → 0.102; Table with 5 painted
+        0.010 → 0.049 over three seeds). Scribbled shapes are
         unchanged by construction (0.0468). Weights 0.02 / 0.03 were no better, 0.1 hurt Mech
         (0.078 → 0.109, ungated). Fit on these categories, not held out. 0 turns it off
         (``bench --stroke-network 0``).
