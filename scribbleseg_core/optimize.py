@@ -138,6 +138,11 @@ class SegmentParams:
         (all 20 shapes) it was 0.51 on Bust, 0.67 on Mech and 0.72 on Vase, the three it made
         worse, and 0.82–1.0 on the nine others (Bird 0.84, FourLeg 0.82, Human 0.91). 0.8
         sits in that gap, so it is fit on these categories, not held out.
+    unseen_members : int
+        With `refine` and `retrain`: the model handed on for unseen shapes is an ensemble of
+        this many networks of the paper's architecture (``NetworkParams.members``), trained
+        side by side on the same labels, each from its own initialization and order of the
+        faces, their probabilities averaged. 1 gives the single network.
     init : {"propagate", "geodesic", "paper"}
         The initial graph cut: ``"paper"`` uses eq. 1 alone (uniform cost on unscribbled
         patches), which has graph cuts' shrinking bias: with short strokes, cutting
@@ -164,6 +169,7 @@ class SegmentParams:
     cross_fit_repeats: int = 2
     stroke_network: float = 0.05
     stroke_network_min_accuracy: float = 0.8
+    unseen_members: int = 5
 
 
 @dataclass(frozen=True, eq=False)
@@ -265,6 +271,8 @@ def segment_collection(
                          f"at least 1; got {params.cross_fit}, {params.cross_fit_folds}, {params.cross_fit_repeats}")
     if params.stroke_network < 0:
         raise ValueError(f"stroke_network must not be negative; got {params.stroke_network}")
+    if params.unseen_members < 1:
+        raise ValueError(f"unseen_members must be at least 1; got {params.unseen_members}")
     propagated = None  # the scribble propagation without the network, made once
     if params.init == "paper":
         U_init = U_scr
@@ -342,10 +350,10 @@ def segment_collection(
                 faces = [s.propagate(k, params.propagation, lp) for s, lp in zip(shapes, logp)]
             yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
             t = time.perf_counter()
-            guided = _stroke_guided_labels(shapes, inputs, k, params)
-            if guided is not None:  # the model for unseen shapes learns the guided labels
-                unseen = FaceClassifier(inputs[0].shape[1], k, params.network)
-                unseen.fit(inputs, _near_strokes(shapes, guided, k, params.retrain_near))
+            learn = unseen_targets(shapes, inputs, targets, k, params)
+            if learn is not targets or params.unseen_members > 1:  # else the retrained network is the model
+                unseen = FaceClassifier(inputs[0].shape[1], k, replace(params.network, members=params.unseen_members))
+                unseen.fit(inputs, learn)
                 model = replace(model, classifier=unseen)
                 yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
     yield Snapshot(it, "done", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t0, model)
@@ -387,6 +395,15 @@ def cross_fit_folds(n: int, folds: int, repeat: int = 0) -> list[np.ndarray]:
     if any(sorted(tuple(h) for h in split(r)) == canonical for r in range(repeat)):
         return []
     return held
+
+
+def unseen_targets(shapes, inputs, targets: list[np.ndarray], k: int, params: SegmentParams) -> list[np.ndarray]:
+    """The face labels the model for unseen shapes learns: the stroke-guided propagation
+    (:func:`_stroke_guided_labels`) where the stroke network carries over between shapes,
+    else `targets` themselves (the scribble propagation the scribbled shapes' network was
+    retrained on; the same list object, so callers can tell)."""
+    guided = _stroke_guided_labels(shapes, inputs, k, params)
+    return targets if guided is None else _near_strokes(shapes, guided, k, params.retrain_near)
 
 
 def stroke_network_accuracy(shapes, inputs, k: int, params: SegmentParams) -> float:

@@ -31,25 +31,26 @@ sys.path.insert(0, str(ROOT))
 from scribbleseg_core.bench.report import load_category  # noqa: E402
 from scribbleseg_core.metrics import rand_index_error  # noqa: E402
 from scribbleseg_core.network import FaceClassifier, NetworkParams  # noqa: E402
-from scribbleseg_core.optimize import SegmentParams, TrainedModel, predict_shape  # noqa: E402
+from scribbleseg_core.optimize import SegmentParams, TrainedModel, predict_shape, unseen_targets  # noqa: E402
 from scribbleseg_core.patch_features import feature_delta, fit_patch_encoder  # noqa: E402
 from scribbleseg_core.psb import categories  # noqa: E402
 from scribbleseg_core.shape import prepare_shape  # noqa: E402
 
 
 def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
-                  kinds: tuple[str, ...] = ("propagated", "truth"), seeds: tuple[int, ...] | None = None,
-                  ) -> dict[str, np.ndarray]:
-    """Mean unseen-shape Rand Index error per kind of training label, one per network seed.
+                  kinds: tuple[str, ...] = ("engine", "truth"), seeds: tuple[int, ...] | None = None,
+                  members: tuple[int, ...] = (1,)) -> dict[tuple[str, int], np.ndarray]:
+    """Mean unseen-shape Rand Index error per kind of training label and ensemble size, one
+    per network seed.
 
-    The shapes, their inputs and training labels are made once; per seed (default
-    ``params.network.seed``) the patch codebook and the networks are refit, as the engine
-    seeds both from ``NetworkParams.seed``.
+    The shapes, their inputs and propagated labels are made once; per seed (default
+    ``params.network.seed``) the patch codebook, the stroke network and the networks are
+    refit, as the engine seeds all of them from ``NetworkParams.seed``.
 
     Returns
     -------
     dict
-        kind -> (len(seeds),) float64 ndarray.
+        (kind, members) -> (len(seeds),) float64 ndarray.
     """
     seeds = (params.network.seed,) if seeds is None else tuple(seeds)
     items, names, _ = load_category(root, cat)
@@ -57,32 +58,35 @@ def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
     shapes = [prepare_shape(it.mesh, it.scribbles.face_labels()) for it in items]
     unscribbled = [prepare_shape(it.mesh) for it in items]  # how the held-out shapes are predicted
     inputs = [s.network_input(params.context_scales) for s in shapes]
-    train_labels = {}
-    if "propagated" in kinds:
-        train_labels["propagated"] = [s.propagate(k, params.propagation) for s in shapes]  # as the engine does
-    if "truth" in kinds:
-        train_labels["truth"] = [np.asarray(it.truth)[it.mesh.proc_to_file] for it in items]
+    propagated = [s.propagate(k, params.propagation) for s in shapes] if {"engine", "propagated"} & set(kinds) else None
+    truth = [np.asarray(it.truth)[it.mesh.proc_to_file] for it in items]
     fold_of = np.arange(n) * folds // n
-    means = {kind: [] for kind in train_labels}
+    means = {(kind, m): [] for kind in kinds for m in members}
     for seed in seeds:
         run = replace(params, network=replace(params.network, seed=seed))
-        errors = {kind: [] for kind in train_labels}
+        errors = {key: [] for key in means}
         for f in range(folds):
             train = np.flatnonzero(fold_of != f)
             encoder = fit_patch_encoder([shapes[i].X for i in train], seed=seed)
             desc = [encoder.encode(shapes[i].X, shapes[i].area, shapes[i].patch) for i in train]
             delta = feature_delta(desc, [shapes[i].patch_pairs for i in train])
-            for kind, labels in train_labels.items():
-                clf = FaceClassifier(inputs[0].shape[1], k, run.network)
-                clf.fit([inputs[i] for i in train], [labels[i] for i in train])
-                model = TrainedModel(clf, encoder, delta, names, run)
-                for i in np.flatnonzero(fold_of == f):
-                    s = unscribbled[i]
-                    refined, _ = predict_shape(model, s)
-                    errors[kind].append(rand_index_error(s.mesh.labels_to_file(refined), items[i].truth))
-        for kind, v in errors.items():
-            means[kind].append(float(np.mean(v)))
-    return {kind: np.array(v) for kind, v in means.items()}
+            for kind in kinds:
+                if kind == "engine":  # what the engine's model for unseen shapes learns
+                    labels = unseen_targets([shapes[i] for i in train], [inputs[i] for i in train],
+                                            [propagated[i] for i in train], k, run)
+                else:
+                    labels = [(propagated if kind == "propagated" else truth)[i] for i in train]
+                for m in members:
+                    clf = FaceClassifier(inputs[0].shape[1], k, replace(run.network, members=m))
+                    clf.fit([inputs[i] for i in train], labels)
+                    model = TrainedModel(clf, encoder, delta, names, run)
+                    for i in np.flatnonzero(fold_of == f):
+                        s = unscribbled[i]
+                        refined, _ = predict_shape(model, s)
+                        errors[kind, m].append(rand_index_error(s.mesh.labels_to_file(refined), items[i].truth))
+        for key, v in errors.items():
+            means[key].append(float(np.mean(v)))
+    return {key: np.array(v) for key, v in means.items()}
 
 
 def main(argv=None) -> None:
@@ -91,27 +95,29 @@ def main(argv=None) -> None:
     parser.add_argument("--categories", nargs="+")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--seeds", type=int, nargs="+", default=[NetworkParams().seed], help="network seeds")
-    parser.add_argument("--kinds", nargs="+", choices=["propagated", "truth"], default=["propagated", "truth"])
+    parser.add_argument("--kinds", nargs="+", choices=["engine", "propagated", "truth"], default=["engine", "truth"])
+    parser.add_argument("--members", type=int, nargs="+", default=[1],
+                        help="ensemble sizes of the model for unseen shapes (NetworkParams.members)")
     args = parser.parse_args(argv)
     root = Path(args.data)
     if not root.is_dir():
         sys.exit(f"{root}: no benchmark data (expected ../shared/psb beside the project)")
     base = SegmentParams()
     params = replace(base, network=replace(base.network, threads=args.threads))
-    kinds = tuple(args.kinds)
-    names = {"propagated": "trained on propagated labels", "truth": "trained on ground truth (ceiling)"}
+    keys = [(kind, m) for kind in args.kinds for m in args.members]
+    names = {"engine": "engine's labels", "propagated": "propagated labels", "truth": "ground truth (ceiling)"}
     spread = len(args.seeds) > 1
-    print("| category | " + " | ".join(names[k] + (" (mean ± sd over seeds)" if spread else "") for k in kinds)
-          + " | seconds |")
-    print("|---|" + "---|" * len(kinds) + "---|")
+    print("| category | " + " | ".join(f"{names[kind]}, ×{m}" + (" (mean ± sd over seeds)" if spread else "")
+                                      for kind, m in keys) + " | seconds |")
+    print("|---|" + "---|" * len(keys) + "---|")
     rows = []
     for cat in args.categories or categories(root):
         t = time.perf_counter()
-        row = unseen_errors(root, cat, params, kinds=kinds, seeds=args.seeds)
+        row = unseen_errors(root, cat, params, kinds=tuple(args.kinds), seeds=args.seeds, members=tuple(args.members))
         rows.append(row)
-        print(f"| {cat} | " + " | ".join(_cell(row[k]) for k in kinds) + f" | {time.perf_counter() - t:.0f} |", flush=True)
+        print(f"| {cat} | " + " | ".join(_cell(row[key]) for key in keys) + f" | {time.perf_counter() - t:.0f} |", flush=True)
     # mean over categories per seed, then its mean and spread over seeds
-    print("| **average** | " + " | ".join(f"**{_cell(np.mean([r[k] for r in rows], axis=0))}**" for k in kinds) + " | |")
+    print("| **average** | " + " | ".join(f"**{_cell(np.mean([r[key] for r in rows], axis=0))}**" for key in keys) + " | |")
 
 
 def _cell(values: np.ndarray) -> str:
