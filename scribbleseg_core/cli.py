@@ -154,8 +154,7 @@ def _bench_params(args):
                    cores=base.cores if args.cores else None,
                    **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
                    **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}),
-                   **({} if args.stroke_network is None else {"stroke_network": args.stroke_network}),
-                   **({} if args.unseen_members is None else {"unseen_members": args.unseen_members}))
+                   **({} if args.stroke_network is None else {"stroke_network": args.stroke_network}))
 
 
 def _cmd_bench_merge(args) -> int:
@@ -252,9 +251,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="weight of the stroke network in the labels the model for unseen shapes is trained on, "
                         "where its held-out accuracy on the strokes reaches SegmentParams.stroke_network_min_accuracy "
                         "(default SegmentParams.stroke_network; 0 = off, the engine before session 13)")
-    p.add_argument("--unseen-members", type=_int_at_least(1), default=None,
-                   help="networks in the ensemble that segments unseen shapes "
-                        "(default SegmentParams.unseen_members; 1 = one network, the engine before session 15)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

@@ -53,8 +53,6 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
         "bins": enc.bins,
         "smooth": enc.smooth,
         "params": dataclasses.asdict(model.params),
-        # the model's own network (an ensemble for unseen shapes), which params.network is not
-        "classifier": dataclasses.asdict(clf.params),
     }
     atomic_write_bytes(folder / "weights.pt", buf.getvalue())
     atomic_write_bytes(folder / "arrays.npz", arrays.getvalue())
@@ -104,7 +102,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         )
     try:
         p = meta["params"]
-        net = _network_params(p["network"])
+        net = NetworkParams(**{**p["network"], "hidden": tuple(p["network"]["hidden"])})
         # files from before cross-fitting (and its repeats) ran without them
         params = SegmentParams(**{"cross_fit": 0.0, "cross_fit_repeats": 1, **p, "network": net, "refinement": RefineParams(**p["refinement"]),
                                   "propagation": _propagate_params(p.get("propagation", {})),
@@ -112,8 +110,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         with np.load(folder / "arrays.npz", allow_pickle=False) as z:
             arr = {key: z[key] for key in z.files}
         state = torch.load(folder / "weights.pt", map_location="cpu", weights_only=True)
-        # files from before ensembles hold the single network of params.network
-        clf = FaceClassifier(int(meta["num_inputs"]), len(names), _network_params(meta.get("classifier", p["network"])))
+        clf = FaceClassifier(int(meta["num_inputs"]), len(names), net)
         clf.net.load_state_dict(state)
         clf.mean, clf.std, clf.trained = arr["mean"], arr["std"], True
         encoder = PatchEncoder(arr["lo"], arr["hi"], arr["hks_mean"], arr["hks_std"], arr["codebook"],
@@ -126,11 +123,6 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     if clf.num_inputs != expected or clf.mean.shape != (expected,):
         raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
     return TrainedModel(clf, encoder, float(meta["delta"]), names, params)
-
-
-def _network_params(d: dict) -> NetworkParams:
-    """Saved network parameters (JSON keeps ``hidden`` as a list)."""
-    return NetworkParams(**{**d, "hidden": tuple(d["hidden"])})
 
 
 def _core_params(p: dict) -> CoreParams | None:

@@ -25,10 +25,6 @@ class NetworkParams:
     balance_classes: bool = True
     seed: int = 0
     threads: int = 2
-    #: Independent networks of this architecture trained side by side (each from its own
-    #: initialization and order of the faces) whose probabilities are averaged
-    #: (:class:`scribbleseg_core.ensemble.MLPEnsemble`); 1 is the single network.
-    members: int = 1
 
 
 def build_mlp(d: int, c: int, hidden: tuple[int, int], dropout: float = 0.0):
@@ -44,17 +40,8 @@ def build_mlp(d: int, c: int, hidden: tuple[int, int], dropout: float = 0.0):
     return nn.Sequential(nn.Linear(d, h1), nn.ReLU(), *drop, nn.Linear(h1, h2), nn.ReLU(), *drop, nn.Linear(h2, c))
 
 
-def build_network(d: int, c: int, params: NetworkParams):
-    """The single network of :func:`build_mlp`, or an ensemble of ``params.members`` of them."""
-    if params.members == 1:
-        return build_mlp(d, c, params.hidden, params.dropout)
-    from scribbleseg_core.ensemble import MLPEnsemble
-
-    return MLPEnsemble(params.members, d, c, params.hidden, params.dropout)
-
-
 class FaceClassifier:
-    """Network (or ensemble of networks) plus the feature standardization it was trained with.
+    """Network plus the feature standardization it was trained with.
 
     Parameters
     ----------
@@ -71,10 +58,8 @@ class FaceClassifier:
         self.params = params
         self.num_inputs = int(num_inputs)
         self.num_labels = int(num_labels)
-        if params.members < 1:
-            raise ValueError(f"NetworkParams.members must be at least 1; got {params.members}")
         torch.manual_seed(params.seed)
-        self.net = build_network(self.num_inputs, self.num_labels, params)
+        self.net = build_mlp(self.num_inputs, self.num_labels, params.hidden, params.dropout)
         self.mean = np.zeros(num_inputs)
         self.std = np.ones(num_inputs)
         self.trained = False
@@ -111,7 +96,7 @@ class FaceClassifier:
         if not warm or not self.trained:
             self.mean, self.std = Xa.mean(0), Xa.std(0) + 1e-8
             torch.manual_seed(p.seed)
-            self.net = build_network(self.num_inputs, self.num_labels, p)
+            self.net = build_mlp(self.num_inputs, self.num_labels, p.hidden, p.dropout)
         counts = np.bincount(ya, minlength=self.num_labels).astype(float)
         w = np.where(counts > 0, counts.sum() / np.maximum(counts, 1) / max((counts > 0).sum(), 1), 0.0)
         weight = torch.from_numpy((w if p.balance_classes else (counts > 0).astype(float)).astype(np.float32))
@@ -126,37 +111,29 @@ class FaceClassifier:
         )
         self.net.train()
         last = 0.0
-        K = p.members
         for _ in range(epochs):
-            # an ensemble's members each see the faces in their own order: (K, N) indices
             perm = torch.randperm(len(Xt), generator=gen)
-            if K > 1:
-                perm = torch.stack([perm, *(torch.randperm(len(Xt), generator=gen) for _ in range(K - 1))])
             total, n = 0.0, 0
             for s in range(0, len(Xt), p.batch_size):
-                idx = perm[..., s : s + p.batch_size]
+                idx = perm[s : s + p.batch_size]
                 opt.zero_grad()
-                # the members' mean losses summed: each member's gradient is its own
-                loss = loss_fn(self.net(Xt[idx]).reshape(-1, self.num_labels), yt[idx].reshape(-1))
-                (loss * K).backward()
+                loss = loss_fn(self.net(Xt[idx]), yt[idx])
+                loss.backward()
                 opt.step()
                 sched.step()
-                total += loss.item() * idx.shape[-1]
-                n += idx.shape[-1]
+                total += loss.item() * len(idx)
+                n += len(idx)
             last = total / max(n, 1)
         self.net.eval()
         self.trained = True
         return last
 
     def log_proba(self, X: np.ndarray) -> np.ndarray:
-        """Log class probabilities per face, (m, c) float64: the log-softmax of the logits, or
-        for an ensemble the log of its members' mean probabilities."""
+        """Log class probabilities per face, (m, c) float64 (log-softmax of the logits)."""
         import torch
 
         torch.set_num_threads(self.params.threads)
         self.net.eval()  # dropout off, whether trained here or loaded from a file
         with torch.no_grad():
             Z = torch.from_numpy(((np.asarray(X, dtype=np.float64) - self.mean) / self.std).astype(np.float32))
-            if self.params.members > 1:
-                return self.net.log_proba(Z).numpy().astype(np.float64)
             return torch.log_softmax(self.net(Z), dim=1).numpy().astype(np.float64)

@@ -138,11 +138,6 @@ class SegmentParams:
         (all 20 shapes) it was 0.51 on Bust, 0.67 on Mech and 0.72 on Vase, the three it made
         worse, and 0.82–1.0 on the nine others (Bird 0.84, FourLeg 0.82, Human 0.91). 0.8
         sits in that gap, so it is fit on these categories, not held out.
-    unseen_members : int
-        With `refine` and `retrain`: the model handed on for unseen shapes is an ensemble of
-        this many networks of the paper's architecture (``NetworkParams.members``), trained
-        side by side on the same labels, each from its own initialization and order of the
-        faces, their probabilities averaged. 1 gives the single network.
     init : {"propagate", "geodesic", "paper"}
         The initial graph cut: ``"paper"`` uses eq. 1 alone (uniform cost on unscribbled
         patches), which has graph cuts' shrinking bias: with short strokes, cutting
@@ -169,7 +164,6 @@ class SegmentParams:
     cross_fit_repeats: int = 2
     stroke_network: float = 0.05
     stroke_network_min_accuracy: float = 0.8
-    unseen_members: int = 5
 
 
 @dataclass(frozen=True, eq=False)
@@ -271,8 +265,6 @@ def segment_collection(
                          f"at least 1; got {params.cross_fit}, {params.cross_fit_folds}, {params.cross_fit_repeats}")
     if params.stroke_network < 0:
         raise ValueError(f"stroke_network must not be negative; got {params.stroke_network}")
-    if params.unseen_members < 1:
-        raise ValueError(f"unseen_members must be at least 1; got {params.unseen_members}")
     propagated = None  # the scribble propagation without the network, made once
     if params.init == "paper":
         U_init = U_scr
@@ -351,8 +343,8 @@ def segment_collection(
             yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)
             t = time.perf_counter()
             learn = unseen_targets(shapes, inputs, targets, k, params)
-            if learn is not targets or params.unseen_members > 1:  # else the retrained network is the model
-                unseen = FaceClassifier(inputs[0].shape[1], k, replace(params.network, members=params.unseen_members))
+            if learn is not targets:  # else the retrained network is the model
+                unseen = FaceClassifier(inputs[0].shape[1], k, params.network)
                 unseen.fit(inputs, learn)
                 model = replace(model, classifier=unseen)
                 yield Snapshot(it, "retrain", energy, _frozen(faces), _frozen(patch_faces), time.perf_counter() - t, model)

@@ -4,15 +4,18 @@
 Rand Index error on unseen shapes (5 folds by sorted id, as ``scribbleseg bench --mode test``)
 of the network trained on
 
-* ``propagated``: the training shapes' propagated scribble labels. This is the model the
-  engine ends with (the refinement retrains the network afresh on those labels), so these
-  figures equal the benchmark's refined unseen-shape errors, in about a third of the time;
+* ``engine``: the labels the engine's model for unseen shapes learns (:func:`unseen_targets`:
+  the scribble propagation, guided by the stroke network where it carries over). The engine
+  trains that model afresh at its end, so these figures equal the benchmark's refined
+  unseen-shape errors, in about a third of the time;
+* ``propagated``: the training shapes' propagated scribble labels (the engine before the
+  stroke network of session 13);
 * ``truth``: the training shapes' ground-truth labels, a diagnostic ceiling (a fully
   supervised network on the same inputs), never a result.
 
 The prediction is :func:`predict_shape` (patch graph cut, then face refinement) either way.
-``--seeds 0 1 2 3 4`` trains with each network seed and prints the mean and the standard
-deviation over seeds: how much of a figure is the seed's luck.
+``--seeds 0 1 2 3 4`` trains with each network seed and prints
+the mean and the standard deviation over seeds: how much of a figure is the seed's luck.
 """
 
 from __future__ import annotations
@@ -39,9 +42,8 @@ from scribbleseg_core.shape import prepare_shape  # noqa: E402
 
 def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
                   kinds: tuple[str, ...] = ("engine", "truth"), seeds: tuple[int, ...] | None = None,
-                  members: tuple[int, ...] = (1,)) -> dict[tuple[str, int], np.ndarray]:
-    """Mean unseen-shape Rand Index error per kind of training label and ensemble size, one
-    per network seed.
+                  ) -> dict[str, np.ndarray]:
+    """Mean unseen-shape Rand Index error per kind of training label, one per network seed.
 
     The shapes, their inputs and propagated labels are made once; per seed (default
     ``params.network.seed``) the patch codebook, the stroke network and the networks are
@@ -50,7 +52,7 @@ def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
     Returns
     -------
     dict
-        (kind, members) -> (len(seeds),) float64 ndarray.
+        kind -> (len(seeds),) float64 ndarray.
     """
     seeds = (params.network.seed,) if seeds is None else tuple(seeds)
     items, names, _ = load_category(root, cat)
@@ -61,7 +63,7 @@ def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
     propagated = [s.propagate(k, params.propagation) for s in shapes] if {"engine", "propagated"} & set(kinds) else None
     truth = [np.asarray(it.truth)[it.mesh.proc_to_file] for it in items]
     fold_of = np.arange(n) * folds // n
-    means = {(kind, m): [] for kind in kinds for m in members}
+    means = {kind: [] for kind in kinds}
     for seed in seeds:
         run = replace(params, network=replace(params.network, seed=seed))
         errors = {key: [] for key in means}
@@ -76,14 +78,13 @@ def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
                                             [propagated[i] for i in train], k, run)
                 else:
                     labels = [(propagated if kind == "propagated" else truth)[i] for i in train]
-                for m in members:
-                    clf = FaceClassifier(inputs[0].shape[1], k, replace(run.network, members=m))
-                    clf.fit([inputs[i] for i in train], labels)
-                    model = TrainedModel(clf, encoder, delta, names, run)
-                    for i in np.flatnonzero(fold_of == f):
-                        s = unscribbled[i]
-                        refined, _ = predict_shape(model, s)
-                        errors[kind, m].append(rand_index_error(s.mesh.labels_to_file(refined), items[i].truth))
+                clf = FaceClassifier(inputs[0].shape[1], k, run.network)
+                clf.fit([inputs[i] for i in train], labels)
+                model = TrainedModel(clf, encoder, delta, names, run)
+                for i in np.flatnonzero(fold_of == f):
+                    s = unscribbled[i]
+                    refined, _ = predict_shape(model, s)
+                    errors[kind].append(rand_index_error(s.mesh.labels_to_file(refined), items[i].truth))
         for key, v in errors.items():
             means[key].append(float(np.mean(v)))
     return {key: np.array(v) for key, v in means.items()}
@@ -96,24 +97,22 @@ def main(argv=None) -> None:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--seeds", type=int, nargs="+", default=[NetworkParams().seed], help="network seeds")
     parser.add_argument("--kinds", nargs="+", choices=["engine", "propagated", "truth"], default=["engine", "truth"])
-    parser.add_argument("--members", type=int, nargs="+", default=[1],
-                        help="ensemble sizes of the model for unseen shapes (NetworkParams.members)")
     args = parser.parse_args(argv)
     root = Path(args.data)
     if not root.is_dir():
         sys.exit(f"{root}: no benchmark data (expected ../shared/psb beside the project)")
     base = SegmentParams()
     params = replace(base, network=replace(base.network, threads=args.threads))
-    keys = [(kind, m) for kind in args.kinds for m in args.members]
+    keys = args.kinds
     names = {"engine": "engine's labels", "propagated": "propagated labels", "truth": "ground truth (ceiling)"}
     spread = len(args.seeds) > 1
-    print("| category | " + " | ".join(f"{names[kind]}, ×{m}" + (" (mean ± sd over seeds)" if spread else "")
-                                      for kind, m in keys) + " | seconds |")
+    print("| category | " + " | ".join(names[kind] + (" (mean ± sd over seeds)" if spread else "") for kind in keys)
+          + " | seconds |")
     print("|---|" + "---|" * len(keys) + "---|")
     rows = []
     for cat in args.categories or categories(root):
         t = time.perf_counter()
-        row = unseen_errors(root, cat, params, kinds=tuple(args.kinds), seeds=args.seeds, members=tuple(args.members))
+        row = unseen_errors(root, cat, params, kinds=tuple(args.kinds), seeds=args.seeds)
         rows.append(row)
         print(f"| {cat} | " + " | ".join(_cell(row[key]) for key in keys) + f" | {time.perf_counter() - t:.0f} |", flush=True)
     # mean over categories per seed, then its mean and spread over seeds
@@ -121,7 +120,7 @@ def main(argv=None) -> None:
 
 
 def _cell(values: np.ndarray) -> str:
-    return f"{values.mean():.3f}" if len(values) == 1 else f"{values.mean():.4f} ± {values.std(ddof=1):.4f}"
+    return f"{values.mean():.4f}" if len(values) == 1 else f"{values.mean():.4f} ± {values.std(ddof=1):.4f}"
 
 
 if __name__ == "__main__":

@@ -308,59 +308,8 @@ def test_stroke_network_trains_only_the_model_for_unseen_shapes(collection):
     inputs = [s.network_input(PARAMS.context_scales) for s in trio]
     assert stroke_network_accuracy(trio, inputs, k, PARAMS) < PARAMS.stroke_network_min_accuracy  # the fixture's gate was shut
     guided = _stroke_guided_labels(trio, inputs, k, on)
-    reference = FaceClassifier(inputs[0].shape[1], k, dataclasses.replace(PARAMS.network, members=on.unseen_members))
+    reference = FaceClassifier(inputs[0].shape[1], k, PARAMS.network)
     reference.fit(inputs, guided)
     x = shapes[3].network_input(PARAMS.context_scales)
     np.testing.assert_allclose(final.model.classifier.log_proba(x), reference.log_proba(x), atol=1e-5)
     assert not np.allclose(snaps[-1].model.classifier.log_proba(x), reference.log_proba(x), atol=1e-3)
-
-
-def test_unseen_model_is_an_ensemble_and_leaves_the_scribbled_shapes_alone(collection):
-    """The model for unseen shapes is ``unseen_members`` networks trained on the labels the
-    single network was trained on; the scribbled shapes' labels do not depend on it."""
-    from scribbleseg_core.ensemble import MLPEnsemble
-    from scribbleseg_core.network import FaceClassifier
-
-    shapes, _, snaps = collection
-    assert PARAMS.unseen_members > 1
-    model = snaps[-1].model
-    assert isinstance(model.classifier.net, MLPEnsemble) and model.classifier.net.members == PARAMS.unseen_members
-    single = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, unseen_members=1)))[-1]
-    for a, b in zip(single.labels, snaps[-1].labels):
-        np.testing.assert_array_equal(a, b)
-    assert not isinstance(single.model.classifier.net, MLPEnsemble)
-    # the fixture's stroke-network gate is shut: both learned the scribble propagation
-    trio, k = shapes[:3], len(LABELS)
-    inputs = [s.network_input(PARAMS.context_scales) for s in trio]
-    reference = FaceClassifier(inputs[0].shape[1], k, dataclasses.replace(PARAMS.network, members=PARAMS.unseen_members))
-    reference.fit(inputs, [s.propagate(k, PARAMS.propagation) for s in trio])
-    x = shapes[3].network_input(PARAMS.context_scales)
-    np.testing.assert_allclose(model.classifier.log_proba(x), reference.log_proba(x), atol=1e-5)
-    with pytest.raises(ValueError, match="unseen_members"):
-        next(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, unseen_members=0)))
-
-
-def test_model_files_keep_the_ensemble_and_read_single_network_files(tmp_path, collection):
-    import json
-
-    from scribbleseg_core.ensemble import MLPEnsemble
-
-    shapes, _, snaps = collection
-    model = snaps[-1].model
-    back = load_model(save_model(tmp_path / "ensemble", model))
-    assert isinstance(back.classifier.net, MLPEnsemble) and back.classifier.params == model.classifier.params
-    x = shapes[3].network_input(model.params.context_scales)
-    np.testing.assert_allclose(back.classifier.log_proba(x), model.classifier.log_proba(x), atol=1e-6)
-    # a file from before ensembles: no "classifier" entry, the single network of params.network
-    single = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, unseen_members=1)))[-1].model
-    folder = save_model(tmp_path / "single", single)
-    meta = json.loads((folder / "model.json").read_text())
-    del meta["classifier"]
-    (folder / "model.json").write_text(json.dumps(meta))
-    old = load_model(folder)
-    assert not isinstance(old.classifier.net, MLPEnsemble)
-    np.testing.assert_allclose(old.classifier.log_proba(x), single.classifier.log_proba(x), atol=1e-6)
-    # weights of an ensemble under a file that describes a single network: refused
-    (tmp_path / "ensemble" / "model.json").write_text(json.dumps(meta))
-    with pytest.raises(ModelFileError, match="corrupt or foreign"):
-        load_model(tmp_path / "ensemble")
