@@ -78,11 +78,13 @@ class PreviewEngine:
         from scribbleseg_core.geometry import face_areas
         from scribbleseg_core.shape import network_input
 
-        scales = tuple(model.params.context_scales)
-        key = (id(mesh), scales)
+        scales, local = tuple(model.params.context_scales), model.params.local_shape
+        key = (id(mesh), scales, local)
         if key not in self._inputs:  # the same input, and disk cache, as the run's
             X = cached_face_features(mesh.V, mesh.F)
-            self._inputs[key] = network_input(X, face_areas(mesh.normalized(), mesh.F), self.graph(mesh), scales)
+            V, F = mesh.normalized(), mesh.F
+            self._inputs[key] = network_input(X, face_areas(V, F), self.graph(mesh), scales,
+                                              local_shape_of=(V, F) if local else None)
         return model.classifier.log_proba(self._inputs[key])
 
     def compute(self, req: PreviewRequest) -> np.ndarray | None:

@@ -152,6 +152,7 @@ def _bench_params(args):
                                        **({} if args.walk is None else {"walk": args.walk}),
                                        **({} if args.convex is None else {"convex": args.convex})),
                    cores=base.cores if args.cores else None,
+                   **({} if args.local_shape is None else {"local_shape": args.local_shape}),
                    **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
                    **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}),
                    **({} if args.stroke_network is None else {"stroke_network": args.stroke_network}))
@@ -251,6 +252,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="weight of the stroke network in the labels the model for unseen shapes is trained on, "
                         "where its held-out accuracy on the strokes reaches SegmentParams.stroke_network_min_accuracy "
                         "(default SegmentParams.stroke_network; 0 = off, the engine before session 13)")
+    p.add_argument("--local-shape", action=argparse.BooleanOptionalAction, default=None,
+                   help="the local extrinsic shape around each face among the network's inputs "
+                        "(default SegmentParams.local_shape; --no-local-shape: the engine before session 15)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

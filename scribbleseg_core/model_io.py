@@ -17,6 +17,7 @@ import numpy as np
 
 from scribbleseg_core import __version__
 from scribbleseg_core.atomic import atomic_write_bytes, atomic_write_text
+from scribbleseg_core.context import LOCAL_SHAPE_PER_SCALE
 from scribbleseg_core.cores import CoreParams
 from scribbleseg_core.dual_graph import CONVEX_FACTOR
 from scribbleseg_core.errors import ModelFileError
@@ -103,8 +104,8 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     try:
         p = meta["params"]
         net = NetworkParams(**{**p["network"], "hidden": tuple(p["network"]["hidden"])})
-        # files from before cross-fitting (and its repeats) ran without them
-        params = SegmentParams(**{"cross_fit": 0.0, "cross_fit_repeats": 1, **p, "network": net, "refinement": RefineParams(**p["refinement"]),
+        # files from before cross-fitting (and its repeats) and the local shape ran without them
+        params = SegmentParams(**{"cross_fit": 0.0, "cross_fit_repeats": 1, "local_shape": False, **p, "network": net, "refinement": RefineParams(**p["refinement"]),
                                   "propagation": _propagate_params(p.get("propagation", {})),
                                   "cores": _core_params(p), "context_scales": tuple(p["context_scales"])})
         with np.load(folder / "arrays.npz", allow_pickle=False) as z:
@@ -119,7 +120,8 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         raise ModelFileError(f"incomplete model: {Path(e.filename).name} is missing", folder) from None
     except Exception as e:  # wrong shapes, a pickle, truncated files: all "not a model of ours"
         raise ModelFileError(f"corrupt or foreign model files ({type(e).__name__}: {e})"[:300], folder) from None
-    expected = NUM_FEATURES * (1 + len(params.context_scales))
+    scales = len(params.context_scales)
+    expected = NUM_FEATURES * (1 + scales) + (LOCAL_SHAPE_PER_SCALE * scales if params.local_shape else 0)
     if clf.num_inputs != expected or clf.mean.shape != (expected,):
         raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
     return TrainedModel(clf, encoder, float(meta["delta"]), names, params)

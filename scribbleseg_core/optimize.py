@@ -50,6 +50,12 @@ class SegmentParams:
     context_scales : tuple of float
         Beyond the paper: diffusion times of the context added to the network's input
         (the 22 signatures diffused over the surface); ``()`` gives the paper's 22 inputs.
+    local_shape : bool
+        Beyond the paper: the network's input also holds the local extrinsic shape around
+        each face at each of `context_scales` (:func:`scribbleseg_core.context.local_shape`:
+        local PCA, normal agreement and a signed multi-scale mean curvature; 5 values a
+        scale). Session 15, harness of ``scripts/unseen_ceiling.py`` (it equals the
+        benchmark's unseen-shape figures), 12 PSB categories: FILL.
     refine : bool
         Run the face-level refinement after convergence: on scribbled shapes the scribble
         propagation of :mod:`scribbleseg_core.propagate` (`propagation`; strokes and
@@ -149,6 +155,7 @@ class SegmentParams:
 
     lam: float = 1.0
     context_scales: tuple[float, ...] = DEFAULT_SCALES
+    local_shape: bool = True
     max_iterations: int = 6
     tolerance: float = 1e-3
     refine: bool = True
@@ -279,7 +286,7 @@ def segment_collection(
     faces = [yi[s.patch] for yi, s in zip(y, shapes)]
     yield Snapshot(0, "graphcut", energy, _frozen(faces), _frozen(faces), time.perf_counter() - t0)
 
-    inputs = [s.network_input(params.context_scales) for s in shapes]
+    inputs = [s.network_input(params.context_scales, params.local_shape) for s in shapes]
     clf = FaceClassifier(inputs[0].shape[1], k, params.network)
     model = None
     U_neu = None
@@ -516,7 +523,7 @@ def predict_shape(model: TrainedModel, shape: ShapeData, *, refine: bool | None 
     k = len(model.label_names)
     refine = model.params.refine if refine is None else refine
     allowed = np.arange(k)
-    logp = model.classifier.log_proba(shape.network_input(model.params.context_scales))
+    logp = model.classifier.log_proba(shape.network_input(model.params.context_scales, model.params.local_shape))
     D = model.encoder.encode(shape.X, shape.area, shape.patch)
     w = feature_weights(D, shape.patch_pairs, model.delta, model.params.lam)
     U = network_unary(shape.patch_matrix(), logp)

@@ -46,11 +46,14 @@ class ShapeData:
     context_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
-    def network_input(self, context_scales: tuple[float, ...] = ()) -> np.ndarray:
-        """:func:`network_input` of this shape, kept per scales."""
-        key = ("input", tuple(context_scales))
+    def network_input(self, context_scales: tuple[float, ...] = (), local_shape: bool = False) -> np.ndarray:
+        """:func:`network_input` of this shape, kept per scales (with the local shape at
+        those scales if `local_shape`)."""
+        key = ("input", tuple(context_scales), local_shape)
         if key not in self._cache:
-            self._cache[key] = network_input(self.X, self.area, self.graph, context_scales, cache=self.context_cache)
+            mesh = (self.mesh.normalized(), self.mesh.F) if local_shape else None
+            self._cache[key] = network_input(self.X, self.area, self.graph, context_scales, local_shape_of=mesh,
+                                             cache=self.context_cache)
         return self._cache[key]
 
     def propagate(self, k: int, params: PropagateParams = PropagateParams(), log_proba: np.ndarray | None = None) -> np.ndarray:
@@ -87,13 +90,15 @@ def network_input(
     graph: DualGraph,
     context_scales: tuple[float, ...] = (),
     *,
+    local_shape_of: tuple[np.ndarray, np.ndarray] | None = None,
     cache: ArrayCache | None = None,
 ) -> np.ndarray:
     """The classifier's input per face: the 22 signatures, then the same diffused at each
-    of `context_scales` (see :mod:`scribbleseg_core.context`).
+    of `context_scales`, then (given the mesh) the local shape at each of them (see
+    :mod:`scribbleseg_core.context`).
 
-    The diffused part is cached on disk (`cache`, default the user cache's ``context``
-    folder): its sparse factorizations cost 0.1–1 s a shape and hold the interpreter
+    The diffused parts are cached on disk (`cache`, default the user cache's ``context``
+    folder): their sparse factorizations cost 0.1–1 s a shape and hold the interpreter
     meanwhile.
 
     Parameters
@@ -103,21 +108,32 @@ def network_input(
         Face areas of the unit-area mesh.
     graph : DualGraph
     context_scales : tuple of float
+    local_shape_of : ((n, 3) float64 ndarray, (m, 3) int64 ndarray), optional
+        V and F of the unit-area mesh: append :func:`~scribbleseg_core.context.local_shape`.
 
     Returns
     -------
-    (m, 22 · (1 + len(context_scales))) float64 ndarray
+    (m, 22 · (1 + s) + 5 · s) float64 ndarray
+        s = len(context_scales); the last 5 · s columns only with `local_shape_of`.
     """
     from scribbleseg_core.cache import hash_arrays
-    from scribbleseg_core.context import diffuse_face_values
+    from scribbleseg_core.context import LOCAL_SHAPE_PER_SCALE, diffuse_face_values, local_shape
 
     scales = tuple(float(t) for t in context_scales)
-    ctx = (cache or ArrayCache(kind="context")).get_or_compute(
+    cache = cache or ArrayCache(kind="context")
+    parts = [X, cache.get_or_compute(
         hash_arrays(X, area, graph.pairs, meta={"context": list(scales), "version": 1}),
         lambda: diffuse_face_values(graph, area, X, scales),
         shape=(len(X), X.shape[1] * len(scales)),
-    )
-    return np.hstack([X, ctx])
+    )]
+    if local_shape_of is not None:
+        V, F = local_shape_of
+        parts.append(cache.get_or_compute(
+            hash_arrays(V, F, meta={"local_shape": list(scales), "version": 1}),
+            lambda: local_shape(V, F, graph, area, scales),
+            shape=(len(X), LOCAL_SHAPE_PER_SCALE * len(scales)),
+        ))
+    return np.hstack(parts)
 
 
 def prepare_shape(

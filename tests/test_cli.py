@@ -93,10 +93,11 @@ def test_bench_options_reach_the_engine():
     assert default.cross_fit == SegmentParams().cross_fit and default.cores is not None
     params = _bench_params(parse(["bench", "data", "--out", "o", "--network-seed", "3", "--threads", "1",
                                   "--cross-fit", "0.5", "--no-cores", "--walk", "0", "--convex", "0.1",
-                                  "--stroke-network", "0"]))
+                                  "--stroke-network", "0", "--no-local-shape"]))
     assert (params.network.seed, params.network.threads, params.cross_fit) == (3, 1, 0.5)
     assert params.cores is None and params.propagation.walk == 0 and params.propagation.convex == 0.1
     assert default.propagation.convex == SegmentParams().propagation.convex
     assert params.stroke_network == 0 and default.stroke_network == SegmentParams().stroke_network > 0
+    assert not params.local_shape and default.local_shape == SegmentParams().local_shape
     with pytest.raises(SystemExit):
         parse(["bench", "data", "--out", "o", "--stroke-network", "-0.05"])
