@@ -14,8 +14,9 @@ of the network trained on
   supervised network on the same inputs), never a result.
 
 The prediction is :func:`predict_shape` (patch graph cut, then face refinement) either way.
-``--seeds 0 1 2 3 4`` trains with each network seed and prints
-the mean and the standard deviation over seeds: how much of a figure is the seed's luck.
+``--seeds 0 1 2 3 4`` trains with each network seed and prints the mean and the standard
+deviation over seeds: how much of a figure is the seed's luck. Options of the engine are
+not flags here: the script runs ``SegmentParams()`` as it is.
 """
 
 from __future__ import annotations
