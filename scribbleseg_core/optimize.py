@@ -58,10 +58,11 @@ class SegmentParams:
         the surface bends in space. Measured in session 15 with ``scripts/unseen_ceiling.py``
         (the benchmark's unseen-shape figures, 5 folds, 12 PSB categories) against the
         published runs without it: network seed 0 0.0885 → 0.0869, seed 1 0.0867 → 0.0848,
-        seed 2 0.0850 → 0.0855 (both on one machine; mean of the three 0.0867 → 0.0857);
-        on seeds 0 and 1 better on Mech (0.084 → 0.073), Human (0.077 → 0.070), FourLeg
-        (0.150 → 0.143) and Plier, worse on Glasses (0.041 → 0.049, 0.046 → 0.051), Octopus
-        (+0.003) and Table (+0.002); Bust moves with the seed (+0.008 / −0.008 / +0.017). A signed mean curvature alone (cotangent Laplacian, diffused at the same
+        seed 2 0.0850 → 0.0855 (both rerun on one machine); mean of the three 0.0867 →
+        0.0857. On seeds 0 and 1 better on Mech (0.084 → 0.073), Human (0.077 → 0.070),
+        FourLeg (0.150 → 0.143) and Plier, worse on Glasses (0.041 → 0.049, 0.046 → 0.051),
+        Octopus (+0.003) and Table (+0.002); Bust moves with the seed (+0.008 / −0.008 /
+        +0.017). A signed mean curvature alone (cotangent Laplacian, diffused at the same
         scales) was noise on the 5 categories run (Bust 0.302, Vase 0.147, Glasses 0.043).
         Only this one set of features was tried, so it is not fit beyond that choice.
     refine : bool
@@ -180,6 +181,11 @@ class SegmentParams:
     stroke_network: float = 0.05
     stroke_network_min_accuracy: float = 0.8
 
+    def network_input(self, shape: ShapeData) -> np.ndarray:
+        """The network's input per face of `shape` under these parameters (context scales,
+        local shape): :meth:`ShapeData.network_input`, (m, d) float64."""
+        return shape.network_input(self.context_scales, self.local_shape)
+
 
 @dataclass(frozen=True, eq=False)
 class TrainedModel:
@@ -294,7 +300,7 @@ def segment_collection(
     faces = [yi[s.patch] for yi, s in zip(y, shapes)]
     yield Snapshot(0, "graphcut", energy, _frozen(faces), _frozen(faces), time.perf_counter() - t0)
 
-    inputs = [s.network_input(params.context_scales, params.local_shape) for s in shapes]
+    inputs = [params.network_input(s) for s in shapes]
     clf = FaceClassifier(inputs[0].shape[1], k, params.network)
     model = None
     U_neu = None
@@ -531,7 +537,7 @@ def predict_shape(model: TrainedModel, shape: ShapeData, *, refine: bool | None 
     k = len(model.label_names)
     refine = model.params.refine if refine is None else refine
     allowed = np.arange(k)
-    logp = model.classifier.log_proba(shape.network_input(model.params.context_scales, model.params.local_shape))
+    logp = model.classifier.log_proba(model.params.network_input(shape))
     D = model.encoder.encode(shape.X, shape.area, shape.patch)
     w = feature_weights(D, shape.patch_pairs, model.delta, model.params.lam)
     U = network_unary(shape.patch_matrix(), logp)

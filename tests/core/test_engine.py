@@ -93,7 +93,7 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     save_model(tmp_path / "m", model)
     back = load_model(tmp_path / "m", expected_labels=LABELS)
     np.testing.assert_array_equal(predict_shape(back, shapes[3])[0], predict_shape(model, shapes[3])[0])
-    x = shapes[3].network_input(model.params.context_scales, model.params.local_shape)
+    x = model.params.network_input(shapes[3])
     np.testing.assert_allclose(back.classifier.log_proba(x), model.classifier.log_proba(x), atol=1e-6)  # no dropout noise
     with pytest.raises(ModelFileError, match="trained on labels"):
         load_model(tmp_path / "m", expected_labels=("a", "b"))
@@ -221,7 +221,7 @@ def test_cross_fit_mixes_held_out_networks_and_leaves_the_model_alone(collection
     assert one.count("crossfit") == 2
     off = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit=0.0)))
     assert "crossfit" not in [s.phase for s in off]
-    x = shapes[3].network_input(PARAMS.context_scales, PARAMS.local_shape)
+    x = PARAMS.network_input(shapes[3])
     # the model (used on unseen shapes) is the same network either way
     np.testing.assert_allclose(off[-1].model.classifier.log_proba(x), snaps[-1].model.classifier.log_proba(x), atol=1e-6)
     for s, gt, labels in zip(shapes, gts, snaps[-1].labels):
@@ -233,7 +233,7 @@ def test_held_out_network_replaces_the_own_one_at_share_1(collection):
     from scribbleseg_core.optimize import _held_out_log_proba, _mix
 
     shapes, gts, _ = collection
-    inputs = [s.network_input(PARAMS.context_scales, PARAMS.local_shape) for s in shapes[:3]]
+    inputs = [PARAMS.network_input(s) for s in shapes[:3]]
     own = np.log(np.full((len(inputs[0]), len(LABELS)), 1.0 / len(LABELS)))
     held = _held_out_log_proba(inputs, gts[:3], np.array([0]), len(LABELS), PARAMS)
     assert list(held) == [0]  # only the held-out shape gets an opinion
@@ -273,7 +273,7 @@ def test_stroke_network_guides_the_training_labels(collection):
 
     shapes, gts, _ = collection
     trio, k = shapes[:3], len(LABELS)
-    inputs = [s.network_input(PARAMS.context_scales, PARAMS.local_shape) for s in trio]
+    inputs = [PARAMS.network_input(s) for s in trio]
     accuracy = stroke_network_accuracy(trio, inputs, k, PARAMS)
     assert 0.5 <= accuracy <= 1.0  # six stroke faces per part on three shapes: some carry over
     just = dataclasses.replace(PARAMS, stroke_network=0.05, stroke_network_min_accuracy=accuracy)
@@ -312,11 +312,11 @@ def test_stroke_network_trains_only_the_model_for_unseen_shapes(collection):
     for a, b in zip(final.labels, snaps[-1].labels):
         np.testing.assert_array_equal(a, b)
     trio, k = shapes[:3], len(LABELS)
-    inputs = [s.network_input(PARAMS.context_scales, PARAMS.local_shape) for s in trio]
+    inputs = [PARAMS.network_input(s) for s in trio]
     assert stroke_network_accuracy(trio, inputs, k, PARAMS) < PARAMS.stroke_network_min_accuracy  # the fixture's gate was shut
     guided = _stroke_guided_labels(trio, inputs, k, on)
     reference = FaceClassifier(inputs[0].shape[1], k, PARAMS.network)
     reference.fit(inputs, guided)
-    x = shapes[3].network_input(PARAMS.context_scales, PARAMS.local_shape)
+    x = PARAMS.network_input(shapes[3])
     np.testing.assert_allclose(final.model.classifier.log_proba(x), reference.log_proba(x), atol=1e-5)
     assert not np.allclose(snaps[-1].model.classifier.log_proba(x), reference.log_proba(x), atol=1e-3)
