@@ -18,6 +18,10 @@ $(VENV)/.base: pyproject.toml
 	$(PIP) install -q -e .
 	touch $@
 
+$(VENV)/.app: $(VENV)/.base
+	$(PIP) install -q -e '.[app]'
+	touch $@
+
 $(VENV)/.test: $(VENV)/.base
 	$(PIP) install -q -e '.[test]'
 	touch $@
@@ -31,18 +35,18 @@ $(VENV)/.test: $(VENV)/.base
 	fi
 	@touch $@
 
-run: $(VENV)/.base .deb-stamp
+run: $(VENV)/.app .deb-stamp
 	$(VENV)/bin/scribbleseg-app
 
 test: $(VENV)/.test .deb-stamp
 	QT_QPA_PLATFORM=offscreen OPENBLAS_NUM_THREADS=1 $(VENV)/bin/lint-imports
-	QT_QPA_PLATFORM=offscreen $(PY) -m pytest $(PYTEST_ARGS)
+	QT_QPA_PLATFORM=offscreen $(PY) -m pytest --durations=15 $(PYTEST_ARGS)
 
 bench-load: $(VENV)/.base
-	$(PY) -m scribbleseg_core.bench.load
+	$(PY) -m scribbleseg_core.evaluation.load_speed
 
 bench: $(VENV)/.base
-	$(PY) -m scribbleseg_core.bench.features
+	$(PY) -m scribbleseg_core.evaluation.signature_speed
 
 bench-engine: $(VENV)/.base
 	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/scribbleseg bench ../shared/psb --mode both --out out/bench

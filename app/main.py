@@ -12,8 +12,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
 
     from PySide6.QtWidgets import QApplication
-
-    from app.main_window import MainWindow
+    from scribbleseg_app.main_window import MainWindow
 
     qapp = QApplication.instance() or QApplication(sys.argv[:1])
     window = MainWindow(args.path)

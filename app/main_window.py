@@ -2,18 +2,17 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
-import time
-
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QColor, QIcon, QKeySequence, QPixmap, QShortcut
 from PySide6.QtWidgets import (
     QCheckBox,
+    QColorDialog,
     QComboBox,
     QFileDialog,
-    QColorDialog,
     QHBoxLayout,
     QInputDialog,
     QLabel,
@@ -27,10 +26,11 @@ from PySide6.QtWidgets import (
     QVBoxLayout,
     QWidget,
 )
+from scribbleseg_app.energy_plot import EnergyPlot
+from scribbleseg_app.model import CollectionModel
 
-from app.energy_plot import EnergyPlot
-from app.model import CollectionModel
 from scribbleseg_core import __version__
+from scribbleseg_core.infra.user_dirs import default_state_dir
 
 #: Default collection when none is given: the bundled demo creatures.
 DEFAULT_COLLECTION = Path(__file__).resolve().parents[1] / "assets" / "Quadruped"
@@ -76,8 +76,8 @@ def warm_imports() -> None:
     import scipy.sparse.linalg  # noqa: F401
     import torch  # noqa: F401
 
-    import scribbleseg_core.optimize  # noqa: F401
-    import scribbleseg_core.pipeline  # noqa: F401
+    import scribbleseg_core.engine.optimize  # noqa: F401
+    import scribbleseg_core.engine.pipeline  # noqa: F401
 
 
 class MainWindow(QMainWindow):
@@ -99,9 +99,7 @@ class MainWindow(QMainWindow):
         self.setWindowTitle(f"scribbleseg {__version__}")
         self.resize(460, 720)
         if autosave_dir is None:
-            import platformdirs
-
-            autosave_dir = Path(platformdirs.user_state_dir("scribbleseg")) / "autosave"
+            autosave_dir = default_state_dir() / "autosave"
         self.model = CollectionModel(autosave_dir)
         self._viewport = None
         if viewport is not None:
@@ -247,7 +245,7 @@ class MainWindow(QMainWindow):
     @property
     def viewport(self):
         if self._viewport is None:
-            from app.viewport import PolyscopeViewport
+            from scribbleseg_app.viewport import PolyscopeViewport
 
             self._attach(PolyscopeViewport())
         return self._viewport
@@ -394,7 +392,7 @@ class MainWindow(QMainWindow):
             return None
         from superqt.utils import thread_worker
 
-        from scribbleseg_core.cache import cached_face_features
+        from scribbleseg_core.signatures.features import cached_face_features
 
         mesh = self.model.shapes[index].mesh()
         self._features_pending.add(index)
@@ -441,7 +439,7 @@ class MainWindow(QMainWindow):
         """Re-propagate shape `index`'s labels in the background; older requests go stale."""
         if not self.preview_box.isChecked() or self.model.shapes[index].state == "error":
             return
-        from app.preview import PreviewRequest, PreviewWorker
+        from scribbleseg_app.preview import PreviewRequest, PreviewWorker
 
         if self._preview_worker is None:
             self._preview_worker = PreviewWorker(self._bridge.preview_done.emit)
@@ -477,7 +475,7 @@ class MainWindow(QMainWindow):
 
     def run_collection(self) -> None:
         """Segment the scribbled shapes and predict the others, in a worker thread."""
-        from app.runner import LazyMeshes, collection_run
+        from scribbleseg_app.runner import LazyMeshes, collection_run
 
         m = self.model
         usable = [i for i, e in enumerate(m.shapes) if e.state != "error"]
@@ -493,7 +491,7 @@ class MainWindow(QMainWindow):
     def predict_unlabeled(self) -> None:
         """Segment the shapes with neither scribbles nor a result (e.g. meshes added after
         the run) with the trained network, in a worker thread."""
-        from app.runner import LazyMeshes, predict_run
+        from scribbleseg_app.runner import LazyMeshes, predict_run
 
         m = self.model
         if m.trained_model is None:
@@ -512,9 +510,8 @@ class MainWindow(QMainWindow):
     def _start_worker(self, generator, args: tuple, indices: list[int], what: str, status: str) -> None:
         """Run `generator(*args)` in a worker thread; its messages (about the shapes
         `indices`, in order) land in :meth:`_on_run_message` on this thread."""
+        from scribbleseg_app.runner import limit_threads
         from superqt.utils import thread_worker
-
-        from app.runner import limit_threads
 
         limit_threads(1)
         self._run_indices = indices
@@ -541,7 +538,7 @@ class MainWindow(QMainWindow):
             self.worker.quit()  # stops between two steps; labels so far stay
 
     def _on_run_message(self, msg) -> None:
-        from app.runner import FeaturesDone, Predicted, StepDone
+        from scribbleseg_app.runner import FeaturesDone, Predicted, StepDone
 
         m = self.model
         if isinstance(msg, FeaturesDone):
@@ -687,7 +684,7 @@ class MainWindow(QMainWindow):
         """Write every shape (or those in `only`) that has a result or scribbles as PLY,
         SEG, OBJ, GLB and JSON; what the user sees is what is written."""
         from scribbleseg_core.errors import ScribblesegError
-        from scribbleseg_core.export import export_labeled_mesh
+        from scribbleseg_core.formats.export import export_labeled_mesh
 
         written = []
         for i, entry in enumerate(self.model.shapes):

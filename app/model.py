@@ -8,13 +8,13 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
+from scribbleseg_app.events import Event
+from scribbleseg_app.painting import Brush, ScribbleLayer
 
-from app.events import Event
-from app.painting import Brush, ScribbleLayer
-from scribbleseg_core.collection import find_collection
 from scribbleseg_core.errors import ScribblesegError
-from scribbleseg_core.labels import LabelSet
-from scribbleseg_core.mesh_io import Mesh, load_mesh
+from scribbleseg_core.formats.collection import find_collection
+from scribbleseg_core.formats.labels import LabelSet
+from scribbleseg_core.formats.mesh import Mesh, load_mesh
 
 ShapeState = Literal["untouched", "scribbled", "labeled", "predicted", "error"]
 
@@ -112,7 +112,7 @@ class CollectionModel:
     def open(self, path: str | os.PathLike) -> None:
         """Open a saved session, a folder of meshes (with scribble files beside them or in
         ``scribbles/``), or one mesh. On failure the open collection stays as it was."""
-        from scribbleseg_core.session import is_session
+        from scribbleseg_core.store.session import is_session
 
         path = Path(path)
         if is_session(path):
@@ -190,7 +190,7 @@ class CollectionModel:
 
     def open_session(self, path: str | os.PathLike) -> None:
         """Open a session folder written by :meth:`save_session`."""
-        from scribbleseg_core.session import load_session
+        from scribbleseg_core.store.session import load_session
 
         try:
             session = load_session(path)
@@ -214,7 +214,7 @@ class CollectionModel:
         list of str
             Shapes left out (their mesh never loaded, so their face count is unknown).
         """
-        from scribbleseg_core.session import Session, SessionShape, save_session
+        from scribbleseg_core.store.session import Session, SessionShape, save_session
 
         shapes, skipped = [], []
         for i, entry in enumerate(self.shapes):
@@ -248,7 +248,7 @@ class CollectionModel:
 
         Unreadable autosave files are reported through `error` and skipped.
         """
-        from scribbleseg_core.scribbles import read_scribbles
+        from scribbleseg_core.formats.scribbles import read_scribbles
 
         folder = self.autosave_folder()
         if folder is None or not folder.is_dir():
@@ -298,7 +298,7 @@ class CollectionModel:
 
     @staticmethod
     def _label_names_beside(folder: Path) -> tuple[str, ...]:
-        from scribbleseg_core.psb import read_label_names
+        from scribbleseg_core.evaluation.psb import read_label_names
 
         f = folder / "labels" / "label_names.txt"
         return tuple(read_label_names(f)) if f.is_file() else ()
@@ -343,7 +343,7 @@ class CollectionModel:
         name = name.strip()
         if not name or name in self.label_set.names:
             raise ValueError(f"label name {name!r} is empty or already used")
-        from scribbleseg_core.labels import default_color
+        from scribbleseg_core.formats.labels import default_color
 
         k = len(self.label_set)
         self.label_set = LabelSet.from_names([*self.label_set.names, name], np.vstack([self.label_set.colors.reshape(-1, 3), default_color(k)]))
@@ -488,14 +488,14 @@ class CollectionModel:
         """Write shape `index`'s scribbles (format v1) into the autosave folder, atomically."""
         if self.autosave_dir is None:
             return None
-        from scribbleseg_core.scribbles import Scribbles, write_scribbles
+        from scribbleseg_core.formats.scribbles import Scribbles, write_scribbles
 
         entry = self.shapes[index]
         folder = self.autosave_folder()
         path = folder / f"{entry.name}.json"
         try:
             if not (folder / "collection.txt").is_file():
-                from scribbleseg_core.atomic import atomic_write_text
+                from scribbleseg_core.infra.atomic import atomic_write_text
 
                 atomic_write_text(folder / "collection.txt", f"{self.folder.resolve()}\n")
             write_scribbles(path, Scribbles.from_face_labels(entry.path.name, self.layer(index).labels, self.label_set.names))

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scribbleseg_core.dual_graph import DualGraph, dual_graph
-from scribbleseg_core.mesh_io import Mesh
-from scribbleseg_core.propagate import PropagateParams, propagate_scribbles
+from scribbleseg_core.engine.propagate import PropagateParams, propagate_scribbles
+from scribbleseg_core.formats.mesh import Mesh
+from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
 
 
 @dataclass(frozen=True)
@@ -74,9 +74,9 @@ class PreviewEngine:
     def log_proba(self, mesh: Mesh, model) -> np.ndarray:
         """The model's face log-probabilities; features and context come from the disk
         caches a run filled (computed there on first use)."""
-        from scribbleseg_core.cache import cached_face_features
-        from scribbleseg_core.geometry import face_areas
-        from scribbleseg_core.shape import network_input
+        from scribbleseg_core.engine.shape import network_input
+        from scribbleseg_core.geometry.measures import face_areas
+        from scribbleseg_core.signatures.features import cached_face_features
 
         scales, local = tuple(model.params.context_scales), model.params.local_shape
         key = (id(mesh), scales, local)
@@ -103,8 +103,10 @@ class PreviewEngine:
         """The shape diameter per face if the signatures are already cached (after a run, or
         shown as colors), else None: the preview never waits for them, and propagates
         without the SDF contrast until they exist."""
-        from scribbleseg_core.cache import cached_face_features
-        from scribbleseg_core.features import SDF_COLUMN
+        from scribbleseg_core.signatures.features import (
+            SDF_COLUMN,
+            cached_face_features,
+        )
 
         key = id(mesh)
         if key not in self._sdf or self._sdf[key][0] is not mesh:

@@ -11,11 +11,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from scribbleseg_core.mesh_io import Mesh
-from scribbleseg_core.optimize import SegmentParams
-from scribbleseg_core.pipeline import FeaturesDone, Predicted, StepDone
-from scribbleseg_core.pipeline import collection_run as _collection_run
-from scribbleseg_core.pipeline import predict_run as _predict_run
+from scribbleseg_core.engine.optimize import SegmentParams
+from scribbleseg_core.engine.pipeline import FeaturesDone, Predicted, StepDone
+from scribbleseg_core.engine.pipeline import collection_run as _collection_run
+from scribbleseg_core.engine.pipeline import predict_run as _predict_run
+from scribbleseg_core.formats.mesh import Mesh
 
 __all__ = ["FeaturesDone", "LazyMeshes", "Predicted", "StepDone", "collection_run", "limit_threads", "predict_run"]
 
@@ -55,7 +55,7 @@ def collection_run(
     label_names: Sequence[str],
     params: SegmentParams = SegmentParams(),
 ) -> Iterator[FeaturesDone | StepDone | Predicted]:
-    """:func:`scribbleseg_core.pipeline.collection_run` with torch on one thread, so the
+    """:func:`scribbleseg_core.engine.pipeline.collection_run` with torch on one thread, so the
     renderer keeps the other core. A generator function itself (``yield from``): superqt's
     ``thread_worker`` only makes a streaming worker of generator functions."""
     params = replace(params, network=replace(params.network, threads=1))
@@ -63,6 +63,6 @@ def collection_run(
 
 
 def predict_run(model, meshes: Sequence[Mesh]) -> Iterator[FeaturesDone | Predicted]:
-    """:func:`scribbleseg_core.pipeline.predict_run` on one torch thread (see above)."""
+    """:func:`scribbleseg_core.engine.pipeline.predict_run` on one torch thread (see above)."""
     model.classifier.params = replace(model.classifier.params, threads=1)
     yield from _predict_run(model, meshes)

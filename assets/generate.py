@@ -18,7 +18,6 @@ Needs the ``assets`` extra (manifold3d, pymeshlab).
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -136,14 +135,14 @@ def _remesh(V, F, target_faces: int) -> tuple[np.ndarray, np.ndarray]:
 
 def _slivers(V, F, degrees: float = 5.0) -> int:
     """Faces with a corner under `degrees`."""
-    from scribbleseg_core.curvature import corner_angles
+    from scribbleseg_core.signatures.curvature import corner_angles
 
     return int((np.degrees(corner_angles(V, F).min(axis=1)) < degrees).sum())
 
 
 def _min_angle(V, F) -> float:
     """Smallest corner angle in degrees."""
-    from scribbleseg_core.curvature import corner_angles
+    from scribbleseg_core.signatures.curvature import corner_angles
 
     return float(np.degrees(corner_angles(V, F).min()))
 
@@ -179,8 +178,8 @@ def psb_protocol_strokes(V, F, labels, min_fraction: float = 0.005) -> list[tupl
     """One stroke per connected part that is its label's largest or covers >= 0.5% of the area."""
     from scipy.sparse.csgraph import connected_components, dijkstra
 
-    from scribbleseg_core.dual_graph import dual_graph
-    from scribbleseg_core.geometry import face_areas
+    from scribbleseg_core.geometry.dual_graph import dual_graph
+    from scribbleseg_core.geometry.measures import face_areas
 
     g = dual_graph(V, F)
     same = labels[g.pairs[:, 0]] == labels[g.pairs[:, 1]]
@@ -229,8 +228,8 @@ def write_ply_f32(path: Path, V: np.ndarray, F: np.ndarray) -> None:
 
 def generate(out: Path = HERE, families=None, only: int | None = None) -> None:
     """Write every family (or `families`, or only shape index `only`) under `out`."""
-    from scribbleseg_core.export import write_seg
-    from scribbleseg_core.scribbles import Scribbles, Stroke, write_scribbles
+    from scribbleseg_core.formats.scribbles import Scribbles, Stroke, write_scribbles
+    from scribbleseg_core.formats.seg import write_seg
 
     for family in families or FAMILIES:
         _, count, scribbled = FAMILIES[family]

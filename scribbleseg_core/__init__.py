@@ -16,7 +16,7 @@ d
 
 ``V (n, 3) float64`` are vertex positions, ``F (m, 3) int64`` triangle vertex indices.
 Face ids everywhere (scribbles, labels, exports) are those of the triangulated file the
-user opened; see :class:`scribbleseg_core.mesh_io.Mesh` for the map to the repaired
+user opened; see :class:`scribbleseg_core.formats.mesh.Mesh` for the map to the repaired
 mesh used for processing.
 """
 
@@ -25,14 +25,16 @@ from scribbleseg_core.errors import (
     ModelFileError,
     ScribbleFileError,
     ScribblesegError,
+    SessionFileError,
 )
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "MeshLoadError",
     "ModelFileError",
     "ScribbleFileError",
     "ScribblesegError",
+    "SessionFileError",
     "__version__",
 ]

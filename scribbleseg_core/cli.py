@@ -15,8 +15,8 @@ from scribbleseg_core.errors import ScribblesegError
 
 
 def _cmd_info(args) -> int:
-    from scribbleseg_core.mesh_io import load_mesh
-    from scribbleseg_core.scribbles import read_scribbles
+    from scribbleseg_core.formats.mesh import load_mesh
+    from scribbleseg_core.formats.scribbles import read_scribbles
 
     status = 0
     for p in args.files:
@@ -35,6 +35,18 @@ def _cmd_info(args) -> int:
     return status
 
 
+def _output_folder(path: str) -> Path:
+    """`path` as an output folder, created if needed; checked before any work is done."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise ScribblesegError("exists and is not a folder; choose another --out", out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ScribblesegError(f"cannot create the output folder ({e.strerror})", out) from None
+    return out
+
+
 def _progress(items, quiet: bool, desc: str):
     return items if quiet else _bar(None, desc, items)
 
@@ -47,8 +59,8 @@ def _bar(total, desc: str, items=None):
 
 def _write_file_labels(out: Path, mesh, file_labels, label_names) -> None:
     """``out/<mesh>.seg`` and ``.ply`` for labels per file face."""
-    from scribbleseg_core.export import export_labeled_mesh
-    from scribbleseg_core.labels import LabelSet
+    from scribbleseg_core.formats.export import export_labeled_mesh
+    from scribbleseg_core.formats.labels import LabelSet
 
     export_labeled_mesh(out, mesh.name, mesh.V_file, mesh.F_file, file_labels,
                         LabelSet.from_names(label_names), formats=["seg", "ply"])
@@ -57,17 +69,22 @@ def _write_file_labels(out: Path, mesh, file_labels, label_names) -> None:
 def _cmd_segment(args) -> int:
     import time
 
-    from scribbleseg_core.collection import find_collection
-    from scribbleseg_core.mesh_io import load_mesh
-    from scribbleseg_core.model_io import save_model
-    from scribbleseg_core.optimize import SegmentParams
-    from scribbleseg_core.pipeline import FeaturesDone, Predicted, StepDone, collection_run
+    from scribbleseg_core.engine.optimize import SegmentParams
+    from scribbleseg_core.engine.pipeline import (
+        FeaturesDone,
+        Predicted,
+        StepDone,
+        collection_run,
+    )
+    from scribbleseg_core.formats.collection import find_collection
+    from scribbleseg_core.formats.mesh import load_mesh
+    from scribbleseg_core.store.model_file import save_model
 
     t0 = time.perf_counter()
+    out = _output_folder(args.out)
     coll = find_collection(args.folder)
     if not coll.scribbles:
         raise ScribblesegError(f"no scribble files in {args.folder} or its scribbles/ folder")
-    out = Path(args.out)
     meshes = []
     for path in coll.meshes:
         mesh = load_mesh(path)
@@ -106,13 +123,13 @@ def _cmd_segment(args) -> int:
 
 
 def _cmd_predict(args) -> int:
-    from scribbleseg_core.mesh_io import load_mesh
-    from scribbleseg_core.model_io import load_model
-    from scribbleseg_core.optimize import predict_shape
-    from scribbleseg_core.shape import prepare_shape
+    from scribbleseg_core.engine.predict import predict_shape
+    from scribbleseg_core.engine.shape import prepare_shape
+    from scribbleseg_core.formats.mesh import load_mesh
+    from scribbleseg_core.store.model_file import load_model
 
+    out = _output_folder(args.out)
     model = load_model(args.model)
-    out = Path(args.out)
     for path in _progress(args.meshes, args.quiet, "predict"):
         mesh = load_mesh(path)
         labels, _ = predict_shape(model, prepare_shape(mesh, num_patches=args.patches),
@@ -122,7 +139,7 @@ def _cmd_predict(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from scribbleseg_core.bench.report import bench
+    from scribbleseg_core.evaluation.benchmark import bench
 
     root = Path(args.data)
     if not (root.is_dir() and any(p.is_dir() and (p / "labels").is_dir() for p in root.iterdir())):
@@ -131,10 +148,11 @@ def _cmd_bench(args) -> int:
              "all": ["train", "test", "scribbled"]}[args.mode]
     progress = None if args.quiet else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
     params = _bench_params(args)
-    report = bench(root, Path(args.out), modes=modes, cats=args.categories, folds=args.folds,
+    out = _output_folder(args.out)
+    report = bench(root, out, modes=modes, cats=args.categories, folds=args.folds,
                    scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed,
                    params=params, progress=progress)
-    print((Path(args.out) / "report.md").read_text())
+    print((out / "report.md").read_text())
     return 0 if report["verified"] else 1
 
 
@@ -142,7 +160,7 @@ def _bench_params(args):
     """The engine's parameters for `bench`: the defaults, with the options given."""
     from dataclasses import replace
 
-    from scribbleseg_core.optimize import SegmentParams
+    from scribbleseg_core.engine.optimize import SegmentParams
 
     base = SegmentParams()
     return replace(base, network=replace(base.network, threads=args.threads,
@@ -159,10 +177,11 @@ def _bench_params(args):
 
 
 def _cmd_bench_merge(args) -> int:
-    from scribbleseg_core.bench.report import merge_reports
+    from scribbleseg_core.evaluation.benchmark import merge_reports
 
-    report = merge_reports(Path(args.data), [Path(p) for p in args.parts], Path(args.out))
-    print((Path(args.out) / "report.md").read_text())
+    out = _output_folder(args.out)
+    report = merge_reports(Path(args.data), [Path(p) for p in args.parts], out)
+    print((out / "report.md").read_text())
     return 0 if report["verified"] else 1
 
 

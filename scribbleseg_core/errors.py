@@ -36,3 +36,7 @@ class ScribbleFileError(ScribblesegError):
 
 class ModelFileError(ScribblesegError):
     """A saved model is from another version, another label set, or is not ours."""
+
+
+class SessionFileError(ScribblesegError):
+    """A session folder is not ours, from a newer version, or its files do not fit."""

@@ -19,7 +19,7 @@ import numpy as np
 
 
 def main() -> None:
-    from scribbleseg_core.psb import default_psb_dir
+    from scribbleseg_core.evaluation.psb import default_psb_dir
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("psb", nargs="?", type=Path, default=default_psb_dir())
@@ -29,11 +29,11 @@ def main() -> None:
         sys.exit("PSB data not found: pass its folder (e.g. ../shared/psb)")
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     from PySide6.QtWidgets import QApplication
+    from scribbleseg_app.main_window import MainWindow
+    from scribbleseg_app.viewport import PolyscopeViewport
 
-    from app.main_window import MainWindow
-    from app.viewport import PolyscopeViewport
-    from scribbleseg_core.psb import categories
-    from scribbleseg_core.scribbles import read_scribbles
+    from scribbleseg_core.evaluation.psb import categories
+    from scribbleseg_core.formats.scribbles import read_scribbles
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
     viewport = PolyscopeViewport()

@@ -17,11 +17,11 @@ ROOT = Path(__file__).resolve().parents[1]
 def main(out: Path = ROOT / "docs" / "families.png", per_family: int = 5) -> None:
     import polyscope as ps
 
-    from scribbleseg_core.export import read_seg
-    from scribbleseg_core.labels import LabelSet
-    from scribbleseg_core.mesh_io import find_meshes, load_mesh
-    from scribbleseg_core.psb import read_label_names
-    from scribbleseg_core.scribbles import read_scribbles
+    from scribbleseg_core.evaluation.psb import read_label_names
+    from scribbleseg_core.formats.labels import LabelSet
+    from scribbleseg_core.formats.mesh import find_meshes, load_mesh
+    from scribbleseg_core.formats.scribbles import read_scribbles
+    from scribbleseg_core.formats.seg import read_seg
 
     ps.set_allow_headless_backends(True)
     ps.init()

@@ -20,9 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 def main(out: Path = ROOT / "docs") -> None:
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     from PySide6.QtWidgets import QApplication
-
-    from app.main_window import MainWindow
-    from app.viewport import PolyscopeViewport
+    from scribbleseg_app.main_window import MainWindow
+    from scribbleseg_app.viewport import PolyscopeViewport
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
     viewport = PolyscopeViewport()

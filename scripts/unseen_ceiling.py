@@ -32,13 +32,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from scribbleseg_core.bench.report import load_category  # noqa: E402
-from scribbleseg_core.metrics import rand_index_error  # noqa: E402
-from scribbleseg_core.network import FaceClassifier, NetworkParams  # noqa: E402
-from scribbleseg_core.optimize import SegmentParams, TrainedModel, predict_shape, unseen_targets  # noqa: E402
-from scribbleseg_core.patch_features import feature_delta, fit_patch_encoder  # noqa: E402
-from scribbleseg_core.psb import categories  # noqa: E402
-from scribbleseg_core.shape import prepare_shape  # noqa: E402
+from scribbleseg_core.engine.network import FaceClassifier, NetworkParams  # noqa: E402
+from scribbleseg_core.engine.optimize import SegmentParams, TrainedModel, unseen_targets  # noqa: E402
+from scribbleseg_core.engine.patch_features import feature_delta, fit_patch_encoder  # noqa: E402
+from scribbleseg_core.engine.predict import predict_shape  # noqa: E402
+from scribbleseg_core.engine.propagate import propagate_shape  # noqa: E402
+from scribbleseg_core.engine.shape import prepare_shape  # noqa: E402
+from scribbleseg_core.evaluation.benchmark import load_category  # noqa: E402
+from scribbleseg_core.evaluation.metrics import rand_index_error  # noqa: E402
+from scribbleseg_core.evaluation.psb import categories  # noqa: E402
 
 
 def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
@@ -61,7 +63,7 @@ def unseen_errors(root: Path, cat: str, params: SegmentParams, folds: int = 5,
     shapes = [prepare_shape(it.mesh, it.scribbles.face_labels()) for it in items]
     unscribbled = [prepare_shape(it.mesh) for it in items]  # how the held-out shapes are predicted
     inputs = [params.network_input(s) for s in shapes]
-    propagated = [s.propagate(k, params.propagation) for s in shapes] if {"engine", "propagated"} & set(kinds) else None
+    propagated = [propagate_shape(s, k, params.propagation) for s in shapes] if {"engine", "propagated"} & set(kinds) else None
     truth = [np.asarray(it.truth)[it.mesh.proc_to_file] for it in items]
     fold_of = np.arange(n) * folds // n
     means = {kind: [] for kind in kinds}

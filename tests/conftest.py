@@ -28,6 +28,23 @@ def write_off(path, V, faces) -> None:
     Path(path).write_text("\n".join(lines) + "\n")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _private_user_folders(tmp_path_factory):
+    """The whole run caches signatures and autosaves into temporary folders, never into the
+    user's cache or state folders (tests that need an empty cache set their own)."""
+    from scribbleseg_core.infra.user_dirs import CACHE_ENV, STATE_ENV
+
+    saved = {env: os.environ.get(env) for env in (CACHE_ENV, STATE_ENV)}
+    os.environ[CACHE_ENV] = str(tmp_path_factory.mktemp("cache"))
+    os.environ[STATE_ENV] = str(tmp_path_factory.mktemp("state"))
+    yield
+    for env, value in saved.items():
+        if value is None:
+            os.environ.pop(env, None)
+        else:
+            os.environ[env] = value
+
+
 @pytest.fixture
 def sphere():
     return icosphere(3)
@@ -35,7 +52,7 @@ def sphere():
 
 @pytest.fixture(scope="session")
 def psb_dir() -> Path:
-    from scribbleseg_core.psb import default_psb_dir
+    from scribbleseg_core.evaluation.psb import default_psb_dir
 
     root = default_psb_dir()
     if root is None:

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scribbleseg_core.export import read_seg
-from scribbleseg_core.mesh_io import find_meshes, load_mesh
-from scribbleseg_core.psb import read_label_names
-from scribbleseg_core.scribbles import read_scribbles
+from scribbleseg_core.evaluation.psb import read_label_names
+from scribbleseg_core.formats.mesh import find_meshes, load_mesh
+from scribbleseg_core.formats.scribbles import read_scribbles
+from scribbleseg_core.formats.seg import read_seg
 
 ASSETS = Path(__file__).resolve().parents[1] / "assets"
 FAMILIES = ["Quadruped", "Chair"]

@@ -33,8 +33,9 @@ def test_segment_then_predict_a_planted_folder(tmp_path):
     """`segment DIR --out OUT` on meshes + scribbles/ (the PSB layout), then `predict`."""
     import numpy as np
 
-    from scribbleseg_core.export import read_ply_labels, read_seg
-    from scribbleseg_core.scribbles import Scribbles, Stroke, write_scribbles
+    from scribbleseg_core.formats.export import read_ply_labels
+    from scribbleseg_core.formats.scribbles import Scribbles, Stroke, write_scribbles
+    from scribbleseg_core.formats.seg import read_seg
     from tests.conftest import write_off
     from tests.core.planted import LABELS, creature, stroke_faces
 
@@ -85,7 +86,7 @@ def test_bench_refuses_out_of_range_options_before_running(tmp_path):
 
 def test_bench_options_reach_the_engine():
     from scribbleseg_core.cli import _bench_params, build_parser
-    from scribbleseg_core.optimize import SegmentParams
+    from scribbleseg_core.engine.optimize import SegmentParams
 
     parse = build_parser().parse_args
     default = _bench_params(parse(["bench", "data", "--out", "o"]))
@@ -101,3 +102,54 @@ def test_bench_options_reach_the_engine():
     assert not params.local_shape and default.local_shape == SegmentParams().local_shape
     with pytest.raises(SystemExit):
         parse(["bench", "data", "--out", "o", "--stroke-network", "-0.05"])
+
+
+def _soup(path, count: int, seed: int = 0) -> None:
+    """An OFF file of `count` disconnected random triangles (a triangle soup)."""
+    import numpy as np
+
+    from tests.conftest import write_off
+
+    rng = np.random.default_rng(seed)  # fixed: the same soup every run
+    V = (rng.random((count, 1, 3)) * 10 + rng.normal(scale=0.1, size=(count, 3, 3))).reshape(-1, 3)
+    write_off(path, V, np.arange(3 * count).reshape(count, 3))
+
+
+def test_segment_processes_a_triangle_soup(tmp_path):
+    """Every triangle its own component: more components than patches."""
+    from scribbleseg_core.formats.scribbles import Scribbles, Stroke, write_scribbles
+    from scribbleseg_core.formats.seg import read_seg
+
+    data, count = tmp_path / "soup", 600
+    data.mkdir()
+    _soup(data / "soup.off", count)
+    strokes = (Stroke(0, (0,)), Stroke(1, (1,)))
+    write_scribbles(data / "soup.json", Scribbles("soup.off", count, ("a", "b"), strokes))
+    r = _run("segment", str(data), "--out", str(tmp_path / "out"), "--quiet")
+    assert r.returncode == 0, r.stderr
+    labels = read_seg(tmp_path / "out" / "soup.seg", count)
+    assert labels[0] == 0 and labels[1] == 1 and set(labels.tolist()) <= {0, 1}
+
+
+def test_segment_into_an_existing_file_is_one_line(tmp_path):
+    from scribbleseg_core.formats.scribbles import Scribbles, Stroke, write_scribbles
+
+    data = tmp_path / "data"
+    data.mkdir()
+    _soup(data / "soup.off", 4)
+    write_scribbles(data / "soup.json", Scribbles("soup.off", 4, ("a",), (Stroke(0, (0,)),)))
+    taken = tmp_path / "taken.txt"
+    taken.write_text("the user's file\n")
+    r = _run("segment", str(data), "--out", str(taken))
+    assert r.returncode == 2 and r.stderr.strip() == f"error: {taken}: exists and is not a folder; choose another --out"
+    assert taken.read_text() == "the user's file\n"
+
+
+def test_a_coordinate_too_large_to_process_is_named(tmp_path):
+    from tests.conftest import write_off
+
+    path = tmp_path / "huge.off"
+    write_off(path, [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1e308]], [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    r = _run("info", str(path))
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.strip() == f"error: {path}: vertex 3 has a coordinate too large to process (1e+308; at most 1e+30 in magnitude)"

@@ -8,7 +8,7 @@ import pytest
 @pytest.fixture(scope="session")
 def viewport():
     pytest.importorskip("PySide6")
-    from app.viewport import PolyscopeViewport
+    from scribbleseg_app.viewport import PolyscopeViewport
 
     return PolyscopeViewport("openGL3_egl")
 
@@ -18,7 +18,7 @@ def _unsaved_work_is_discarded(monkeypatch):
     """Closing a window with unsaved work asks a modal question; tests answer 'discard'
     (a test of the question itself replaces the answer)."""
     try:
-        from app.main_window import MainWindow
+        from scribbleseg_app.main_window import MainWindow
     except ImportError:  # no Qt: the model tests still run
         return
     monkeypatch.setattr(MainWindow, "_ask_unsaved", lambda self, can_cancel: "discard")

@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from scribbleseg_app.model import CollectionModel
 
-from app.model import CollectionModel
 from tests.conftest import icosphere, write_off
 
 

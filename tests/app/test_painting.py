@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-
-from app.painting import ERASE, Brush, ScribbleLayer
+from scribbleseg_app.painting import ERASE, Brush, ScribbleLayer
 
 
 def test_one_stroke_is_one_undo_step():

@@ -6,8 +6,8 @@ import threading
 import time
 
 import numpy as np
+from scribbleseg_app.preview import PreviewEngine, PreviewRequest, PreviewWorker
 
-from app.preview import PreviewEngine, PreviewRequest, PreviewWorker
 from tests.core.planted import LABELS, creature, stroke_faces
 
 
@@ -36,11 +36,12 @@ def test_latest_request_wins_and_results_arrive_in_order():
         if result.generation == 20:
             done.set()
 
-    gate = threading.Event()
+    started, gate = threading.Event(), threading.Event()
 
     class SlowFirst(PreviewEngine):  # the first preview is still running during the burst
         def compute(self, req):
             if req.generation == 1:
+                started.set()
                 gate.wait(10)
             return super().compute(req)
 
@@ -51,7 +52,7 @@ def test_latest_request_wins_and_results_arrive_in_order():
             scribble[stroke_faces(mesh, gt, gen % len(LABELS))] = gen % len(LABELS)
             worker.request(_request(gen, mesh, scribble))
             if gen == 1:
-                time.sleep(0.2)  # let the worker take request 1
+                assert started.wait(10)  # the worker has taken request 1
         gate.set()
         assert done.wait(30)
     finally:
@@ -75,7 +76,7 @@ def test_a_failing_preview_is_reported_not_raised():
 
 
 def test_the_sdf_for_the_contrast_term_comes_only_from_the_cache(tmp_path, monkeypatch):
-    from scribbleseg_core.cache import cached_face_features
+    from scribbleseg_core.signatures.features import cached_face_features
 
     monkeypatch.setenv("SCRIBBLESEG_CACHE_DIR", str(tmp_path))
     mesh, _ = creature(1.6, 0.9, seed=2)
@@ -84,10 +85,10 @@ def test_the_sdf_for_the_contrast_term_comes_only_from_the_cache(tmp_path, monke
     assert not list(tmp_path.rglob("*.npz"))
     X = cached_face_features(mesh.V, mesh.F)  # what a run (or "show feature") leaves behind
     np.testing.assert_array_equal(engine.sdf(mesh), X[:, 1])
-    import scribbleseg_core.cache as cache_module
+    import scribbleseg_core.signatures.features as features_module
 
     def no_lookup(*args, **kwargs):
         raise AssertionError("the SDF is read from the disk cache at every stroke")
 
-    monkeypatch.setattr(cache_module, "cached_face_features", no_lookup)
+    monkeypatch.setattr(features_module, "cached_face_features", no_lookup)
     np.testing.assert_array_equal(engine.sdf(mesh), X[:, 1])  # kept once found

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from scribbleseg_app.runner import FeaturesDone, Predicted, StepDone, collection_run
 
-from app.runner import FeaturesDone, Predicted, StepDone, collection_run
-from scribbleseg_core.network import NetworkParams
-from scribbleseg_core.optimize import SegmentParams
+from scribbleseg_core.engine.network import NetworkParams
+from scribbleseg_core.engine.optimize import SegmentParams
 from tests.core.planted import LABELS, creature, stroke_faces
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scribbleseg_core.mesh_io import Mesh, repair
+from scribbleseg_core.formats.mesh import Mesh, repair
 from tests.conftest import icosphere
 
 LABELS = ("body", "limb", "head")
@@ -42,7 +42,7 @@ def stroke_faces(mesh: Mesh, gt: np.ndarray, label: int, n: int = 6) -> np.ndarr
     """A short stroke per connected part of `label`: its n faces nearest the part's centroid."""
     from scipy.sparse.csgraph import connected_components
 
-    from scribbleseg_core.dual_graph import dual_graph
+    from scribbleseg_core.geometry.dual_graph import dual_graph
 
     g = dual_graph(mesh.V, mesh.F)
     inside = (gt[g.pairs[:, 0]] == label) & (gt[g.pairs[:, 1]] == label)

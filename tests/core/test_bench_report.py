@@ -7,11 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from scribbleseg_core.bench.report import bench, keep_coverage, verify
-from scribbleseg_core.export import write_seg
-from scribbleseg_core.network import NetworkParams
-from scribbleseg_core.optimize import SegmentParams
-from scribbleseg_core.scribbles import Scribbles, Stroke, write_scribbles
+from scribbleseg_core.engine.network import NetworkParams
+from scribbleseg_core.engine.optimize import SegmentParams
+from scribbleseg_core.evaluation.benchmark import bench, keep_coverage, verify
+from scribbleseg_core.formats.scribbles import Scribbles, Stroke, write_scribbles
+from scribbleseg_core.formats.seg import write_seg
 from tests.conftest import write_off
 from tests.core.planted import LABELS, creature, stroke_faces
 
@@ -82,8 +82,8 @@ def test_keep_coverage_keeps_the_middle_of_every_stroke():
 def test_reports_run_apart_merge_into_one(tmp_path, planted_root):
     import shutil
 
-    from scribbleseg_core.bench.report import merge_reports
     from scribbleseg_core.errors import ScribblesegError
+    from scribbleseg_core.evaluation.benchmark import merge_reports
 
     root = tmp_path / "psb"
     shutil.copytree(planted_root, root)

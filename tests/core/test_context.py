@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from scribbleseg_core.context import LOCAL_SHAPE_PER_SCALE, local_shape
-from scribbleseg_core.dual_graph import dual_graph
-from scribbleseg_core.geometry import face_areas, normalize
+from scribbleseg_core.geometry.dual_graph import dual_graph
+from scribbleseg_core.geometry.measures import face_areas, normalize
+from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE, local_shape
 from tests.conftest import icosphere
 
 SCALES = (0.002, 0.01, 0.05)

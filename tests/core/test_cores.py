@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scribbleseg_core.cores import CoreParams, part_cores, propagate_from_cores
-from scribbleseg_core.dual_graph import dual_graph
-from scribbleseg_core.geometry import face_areas
-from scribbleseg_core.graphcut import alpha_expansion
-from scribbleseg_core.topology import label_components
+
+from scribbleseg_core.engine.cores import CoreParams, part_cores, propagate_from_cores
+from scribbleseg_core.engine.graphcut import alpha_expansion
+from scribbleseg_core.geometry.dual_graph import dual_graph
+from scribbleseg_core.geometry.measures import face_areas
+from scribbleseg_core.geometry.topology import label_components
 from tests.core.planted import LABELS, creature
 
 K = len(LABELS)

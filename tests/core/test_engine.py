@@ -7,17 +7,18 @@ import dataclasses
 import numpy as np
 import pytest
 
-from scribbleseg_core.cache import ArrayCache
-from scribbleseg_core.cores import CoreParams
-from scribbleseg_core.dual_graph import CONVEX_FACTOR
-from scribbleseg_core.energy import scribble_unary
+from scribbleseg_core.engine.energy import scribble_unary
+from scribbleseg_core.engine.graphcut import INF
+from scribbleseg_core.engine.network import NetworkParams
+from scribbleseg_core.engine.optimize import SegmentParams, segment_collection
+from scribbleseg_core.engine.predict import predict_shape
+from scribbleseg_core.engine.propagate import propagate_shape
+from scribbleseg_core.engine.shape import prepare_shape
 from scribbleseg_core.errors import ModelFileError
-from scribbleseg_core.graphcut import INF
-from scribbleseg_core.model_io import load_model, save_model
-from scribbleseg_core.network import NetworkParams
-from scribbleseg_core.optimize import SegmentParams, predict_shape, segment_collection
-from scribbleseg_core.propagate import PropagateParams
-from scribbleseg_core.shape import prepare_shape
+from scribbleseg_core.infra.cache import ArrayCache
+from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
+from scribbleseg_core.signatures.features import NUM_FEATURES
+from scribbleseg_core.store.model_file import load_model, save_model
 from tests.core.planted import LABELS, creature, stroke_faces
 
 PARAMS = SegmentParams(network=NetworkParams(epochs=30, warm_epochs=10, max_faces_per_shape=3000))
@@ -101,36 +102,30 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
 
     import torch
 
-    meta = json.loads((tmp_path / "m" / "model.json").read_text())
-    (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "version": 99}))
-    with pytest.raises(ModelFileError, match="version 99"):
-        load_model(tmp_path / "m")
-    # the unseen-shape core propagation settings travel with the model; a model saved
-    # before they existed gets the defaults; None (switched off) stays off
-    assert back.params.cores == model.params.cores
-    (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "params": {k: v for k, v in meta["params"].items() if k != "cores"}}))
-    assert load_model(tmp_path / "m").params.cores == CoreParams()
+    meta_path = tmp_path / "m" / "model.json"
+    meta = json.loads(meta_path.read_text())
+    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 2"),
+                             (1, "model format version 1, written by scribbleseg .*, older than the version 2")]:
+        meta_path.write_text(json.dumps({**meta, "version": version}))
+        with pytest.raises(ModelFileError, match=message) as refused:
+            load_model(tmp_path / "m")
+        assert str(tmp_path / "m") in str(refused.value)
+    # what prediction uses travels with the model, switched-off parts included
+    assert back.params.cores == model.params.cores and back.params.propagation == model.params.propagation
+    assert (back.params.refinement, back.params.lam, back.params.context_scales, back.params.local_shape) == (
+        model.params.refinement, model.params.lam, model.params.context_scales, model.params.local_shape)
     save_model(tmp_path / "off", dataclasses.replace(model, params=dataclasses.replace(model.params, cores=None)))
     assert load_model(tmp_path / "off").params.cores is None
-    # the random-walk and convex-crease weights travel too; a model saved before they
-    # existed ran without the walk and with the dual graph's convex factor
-    assert back.params.propagation == model.params.propagation and back.params.propagation.walk > 0
-    assert back.params.propagation.convex == PropagateParams().convex != CONVEX_FACTOR
-    old_prop = {k: v for k, v in meta["params"]["propagation"].items() if k not in ("walk", "convex")}
-    (tmp_path / "m" / "model.json").write_text(json.dumps({**meta, "params": {**meta["params"], "propagation": old_prop}}))
-    old = load_model(tmp_path / "m").params.propagation
-    assert (old.walk, old.convex) == (0.0, CONVEX_FACTOR)
-    # so does the cross-fitting share; a model saved before it existed ran without it
-    assert back.params.cross_fit == model.params.cross_fit > 0
-    (tmp_path / "m" / "model.json").write_text(
-        json.dumps({**meta, "params": {k: v for k, v in meta["params"].items() if k != "cross_fit"}}))
-    assert load_model(tmp_path / "m").params.cross_fit == 0.0
-    # the local shape inputs travel too; a file from before them had none, and this model's
-    # weights expect them
-    assert back.params.local_shape and model.classifier.num_inputs == 22 * 4 + 5 * 3
-    (tmp_path / "m" / "model.json").write_text(
-        json.dumps({**meta, "params": {k: v for k, v in meta["params"].items() if k != "local_shape"}}))
-    with pytest.raises(ModelFileError, match="expects 103 inputs per face, its parameters give 88"):
+    # a file that lacks a part of the schema says which
+    meta_path.write_text(json.dumps({k: v for k, v in meta.items() if k != "inputs"}))
+    with pytest.raises(ModelFileError, match="model.json lacks 'inputs'"):
+        load_model(tmp_path / "m")
+    # weights that do not fit the inputs the file describes are refused
+    s = len(model.params.context_scales)
+    assert model.classifier.num_inputs == NUM_FEATURES * (1 + s) + LOCAL_SHAPE_PER_SCALE * s
+    meta_path.write_text(json.dumps({**meta, "inputs": {**meta["inputs"], "local_shape": False}}))
+    with pytest.raises(ModelFileError, match=f"expects {model.classifier.num_inputs} inputs per face, its parameters "
+                                             f"give {NUM_FEATURES * (1 + s)}"):
         load_model(tmp_path / "m")
     (tmp_path / "m" / "model.json").write_text(json.dumps(meta))
     # a pickle with code in place of the weights is refused, not executed
@@ -171,7 +166,7 @@ def test_patches_never_mix_scribble_labels_and_are_connected(collection):
 
 
 def test_retrain_near_keeps_the_faces_nearest_the_strokes(collection):
-    from scribbleseg_core.optimize import _near_strokes
+    from scribbleseg_core.engine.optimize import _near_strokes
 
     shapes, gts, _ = collection
     kept = _near_strokes(shapes[:3], gts[:3], len(LABELS), 0.5)
@@ -183,7 +178,7 @@ def test_retrain_near_keeps_the_faces_nearest_the_strokes(collection):
 
 
 def test_cross_fit_folds_hold_each_shape_out_once():
-    from scribbleseg_core.optimize import cross_fit_folds
+    from scribbleseg_core.engine.optimize import cross_fit_folds
 
     for n, folds in [(20, 4), (3, 4), (2, 2), (7, 3)]:
         held = cross_fit_folds(n, folds)
@@ -194,7 +189,7 @@ def test_cross_fit_folds_hold_each_shape_out_once():
 
 
 def test_cross_fit_repeats_split_the_shapes_anew():
-    from scribbleseg_core.optimize import cross_fit_folds
+    from scribbleseg_core.engine.optimize import cross_fit_folds
 
     def partition(held):
         return sorted(tuple(h) for h in held)
@@ -229,8 +224,8 @@ def test_cross_fit_mixes_held_out_networks_and_leaves_the_model_alone(collection
 
 
 def test_held_out_network_replaces_the_own_one_at_share_1(collection):
-    from scribbleseg_core.network import FaceClassifier
-    from scribbleseg_core.optimize import _held_out_log_proba, _mix
+    from scribbleseg_core.engine.network import FaceClassifier
+    from scribbleseg_core.engine.optimize import _held_out_log_proba, _mix
 
     shapes, gts, _ = collection
     inputs = [PARAMS.network_input(s) for s in shapes[:3]]
@@ -246,7 +241,7 @@ def test_held_out_network_replaces_the_own_one_at_share_1(collection):
 
 
 def test_mix_averages_held_out_probabilities():
-    from scribbleseg_core.optimize import _mix
+    from scribbleseg_core.engine.optimize import _mix
 
     own = np.log(np.array([[0.9, 0.1]]))
     p1, p2 = np.log(np.array([[0.2, 0.8]])), np.log(np.array([[0.6, 0.4]]))
@@ -268,8 +263,11 @@ def test_stroke_network_guides_the_training_labels(collection):
     labels; weight 0, a single shape or a stroke
     network whose held-out accuracy on the strokes falls short leave the propagation alone; a
     large weight makes the labels follow that network where no stroke holds them."""
-    from scribbleseg_core.network import FaceClassifier
-    from scribbleseg_core.optimize import _stroke_guided_labels, stroke_network_accuracy
+    from scribbleseg_core.engine.network import FaceClassifier
+    from scribbleseg_core.engine.optimize import (
+        _stroke_guided_labels,
+        stroke_network_accuracy,
+    )
 
     shapes, gts, _ = collection
     trio, k = shapes[:3], len(LABELS)
@@ -287,7 +285,7 @@ def test_stroke_network_guides_the_training_labels(collection):
         sel = s.scribble >= 0
         np.testing.assert_array_equal(y[sel], s.scribble[sel])
         assert (y == gt).mean() >= 0.95
-    plain = [s.propagate(k, PARAMS.propagation) for s in trio]
+    plain = [propagate_shape(s, k, PARAMS.propagation) for s in trio]
     net = FaceClassifier(inputs[0].shape[1], k, PARAMS.network)
     net.fit(inputs, [s.scribble for s in trio])  # the stroke network: stroke faces only
     vote = [net.log_proba(x).argmax(1) for x in inputs]
@@ -303,8 +301,11 @@ def test_stroke_network_trains_only_the_model_for_unseen_shapes(collection):
     """With the stroke network on (gate open), the scribbled shapes' labels are those of the
     engine without it, and the model handed on for unseen shapes is a network trained on the
     guided labels."""
-    from scribbleseg_core.network import FaceClassifier
-    from scribbleseg_core.optimize import _stroke_guided_labels, stroke_network_accuracy
+    from scribbleseg_core.engine.network import FaceClassifier
+    from scribbleseg_core.engine.optimize import (
+        _stroke_guided_labels,
+        stroke_network_accuracy,
+    )
 
     shapes, _, snaps = collection
     on = dataclasses.replace(PARAMS, stroke_network=0.05, stroke_network_min_accuracy=0.0)

@@ -9,16 +9,15 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from scribbleseg_core.atomic import atomic_write
 from scribbleseg_core.errors import ScribbleFileError, ScribblesegError
-from scribbleseg_core.export import (
+from scribbleseg_core.formats.export import (
     export_labeled_mesh,
     read_obj_groups,
     read_ply_labels,
-    read_seg,
-    write_seg,
 )
-from scribbleseg_core.labels import LabelSet
+from scribbleseg_core.formats.labels import LabelSet
+from scribbleseg_core.formats.seg import read_seg, write_seg
+from scribbleseg_core.infra.atomic import atomic_write
 from tests.conftest import icosphere
 
 NAMES = ("seat", "back", "front leg", "arm")
@@ -126,8 +125,8 @@ def test_crash_mid_save_keeps_the_good_file(tmp_path):
 
 
 def test_psb_ground_truth_exports_round_trip(tmp_path, psb_dir):
-    from scribbleseg_core.mesh_io import load_mesh
-    from scribbleseg_core.psb import read_label_names
+    from scribbleseg_core.evaluation.psb import read_label_names
+    from scribbleseg_core.formats.mesh import load_mesh
 
     mesh = load_mesh(psb_dir / "Chair" / "101.off")
     labels = read_seg(psb_dir / "Chair" / "labels" / "101.seg", mesh.num_file_faces)

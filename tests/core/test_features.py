@@ -6,11 +6,24 @@ import numpy as np
 import pytest
 import trimesh
 
-from scribbleseg_core.agd import average_geodesic_distance
-from scribbleseg_core.curvature import angle_defect, face_gaussian_curvature, gaussian_curvature
-from scribbleseg_core.features import FEATURE_NAMES, FeatureParams, face_features
-from scribbleseg_core.hks import si_hks
-from scribbleseg_core.sdf import ray_pattern, ray_weights, raw_sdf, robust_weighted_mean
+from scribbleseg_core.signatures.agd import average_geodesic_distance
+from scribbleseg_core.signatures.curvature import (
+    angle_defect,
+    face_gaussian_curvature,
+    gaussian_curvature,
+)
+from scribbleseg_core.signatures.features import (
+    FEATURE_NAMES,
+    FeatureParams,
+    face_features,
+)
+from scribbleseg_core.signatures.hks import si_hks
+from scribbleseg_core.signatures.sdf import (
+    raw_sdf,
+    ray_pattern,
+    ray_weights,
+    robust_weighted_mean,
+)
 from tests.conftest import icosphere
 
 FAST = FeatureParams(num_eigenpairs=40, sdf_rays=30, agd_sources=16)
@@ -142,7 +155,7 @@ def nasty_mesh():
 
 
 def test_no_nan_or_inf_on_a_nasty_mesh():
-    from scribbleseg_core.mesh_io import repair
+    from scribbleseg_core.formats.mesh import repair
 
     V, F = nasty_mesh()
     report = repair(V, F).report

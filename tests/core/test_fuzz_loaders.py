@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from scribbleseg_core.errors import MeshLoadError
-from scribbleseg_core.mesh_io import load_mesh
+from scribbleseg_core.formats.mesh import load_mesh
 from tests.conftest import icosphere
 
 EXTS = ["off", "obj", "ply", "stl", "glb", "gltf"]

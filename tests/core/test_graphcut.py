@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from scribbleseg_core.graphcut import INF, alpha_expansion, potts_energy
+from scribbleseg_core.engine.graphcut import INF, alpha_expansion, potts_energy
 
 
 def _random_problem(rng, p, k, q):

@@ -7,8 +7,8 @@ import pytest
 import trimesh
 
 from scribbleseg_core.errors import MeshLoadError, ScribblesegError
-from scribbleseg_core.geometry import face_areas, normalize
-from scribbleseg_core.mesh_io import MESH_EXTENSIONS, load_mesh, repair
+from scribbleseg_core.formats.mesh import MESH_EXTENSIONS, load_mesh, repair
+from scribbleseg_core.geometry.measures import face_areas, normalize
 from tests.conftest import icosphere, write_off
 
 

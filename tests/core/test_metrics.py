@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scribbleseg_core.metrics import (
+from scribbleseg_core.evaluation.metrics import (
     consistency_errors,
     cut_discrepancy,
     hamming_distance,

@@ -7,8 +7,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from scribbleseg_core.dual_graph import DualGraph, dual_graph
-from scribbleseg_core.propagate import PropagateParams, propagate_scribbles, random_walk_probabilities, scribble_distances
+from scribbleseg_core.engine.propagate import (
+    PropagateParams,
+    propagate_scribbles,
+    random_walk_probabilities,
+    scribble_distances,
+)
+from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
 from tests.core.planted import LABELS, creature, stroke_faces
 
 

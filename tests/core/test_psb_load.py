@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from scribbleseg_core.export import read_seg
-from scribbleseg_core.mesh_io import find_meshes, load_mesh
-from scribbleseg_core.scribbles import read_scribbles
+from scribbleseg_core.formats.mesh import find_meshes, load_mesh
+from scribbleseg_core.formats.scribbles import read_scribbles
+from scribbleseg_core.formats.seg import read_seg
 
 
 @pytest.mark.psb

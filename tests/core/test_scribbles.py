@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from scribbleseg_core.errors import ScribbleFileError
-from scribbleseg_core.scribbles import (
+from scribbleseg_core.formats.scribbles import (
     Scribbles,
     Stroke,
     read_scribbles,

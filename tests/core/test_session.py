@@ -8,9 +8,16 @@ import shutil
 import numpy as np
 import pytest
 
-from scribbleseg_core.labels import LabelSet
+from scribbleseg_core.errors import SessionFileError
+from scribbleseg_core.formats.labels import LabelSet
+from scribbleseg_core.store.session import (
+    Session,
+    SessionShape,
+    is_session,
+    load_session,
+    save_session,
+)
 from tests.conftest import icosphere, write_off
-from scribbleseg_core.session import Session, SessionFileError, SessionShape, is_session, load_session, save_session
 
 
 @pytest.fixture

@@ -1,0 +1,179 @@
+"""Per-shape data the engine works on: features, dual graph, patches, scribbles."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from scribbleseg_core.engine.patches import over_segment, patch_adjacency
+from scribbleseg_core.formats.mesh import Mesh
+from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
+from scribbleseg_core.geometry.measures import face_areas
+from scribbleseg_core.infra.cache import ArrayCache, hash_arrays
+from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
+from scribbleseg_core.signatures.features import NUM_FEATURES, SDF_COLUMN, FeatureParams, cached_face_features
+
+
+@dataclass(frozen=True, eq=False)
+class ShapeData:
+    """One shape, ready for the optimization. Face arrays index the repaired faces.
+
+    Attributes
+    ----------
+    mesh : Mesh
+    X : (m, 22) float64 ndarray
+        Face features.
+    area : (m,) float64 ndarray
+        Face areas of the unit-area mesh.
+    graph : DualGraph
+    patch : (m,) int64 ndarray
+        Patch id per face.
+    patch_pairs : (r, 2) int64 ndarray
+        Adjacent patches.
+    scribble : (m,) int64 ndarray
+        Scribble label per face (collection label ids), -1 where unscribbled.
+    """
+
+    mesh: Mesh
+    X: np.ndarray
+    area: np.ndarray
+    graph: DualGraph
+    patch: np.ndarray
+    patch_pairs: np.ndarray
+    scribble: np.ndarray
+    context_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def network_input(self, context_scales: tuple[float, ...] = (), local_shape: bool = False) -> np.ndarray:
+        """:func:`network_input` of this shape, kept per scales (with the local shape at
+        those scales if `local_shape`)."""
+        key = ("input", tuple(context_scales), local_shape)
+        if key not in self._cache:
+            mesh = (self.mesh.normalized(), self.mesh.F) if local_shape else None
+            self._cache[key] = network_input(self.X, self.area, self.graph, context_scales, local_shape_of=mesh,
+                                             cache=self.context_cache)
+        return self._cache[key]
+
+    @property
+    def sdf(self) -> np.ndarray:
+        """(m,) float64: the shape diameter column of `X`."""
+        return self.X[:, SDF_COLUMN]
+
+    @property
+    def name(self) -> str:
+        return self.mesh.name
+
+    @property
+    def num_patches(self) -> int:
+        return int(self.patch.max()) + 1
+
+    @property
+    def is_scribbled(self) -> bool:
+        return bool((self.scribble >= 0).any())
+
+    @property
+    def scribbled_labels(self) -> np.ndarray:
+        """Sorted label ids scribbled on this shape."""
+        return np.unique(self.scribble[self.scribble >= 0])
+
+    def patch_matrix(self) -> sp.csr_matrix:
+        """Indicator (p, m): row i sums face values over patch i."""
+        m = len(self.patch)
+        return sp.csr_matrix((np.ones(m), (self.patch, np.arange(m))), shape=(self.num_patches, m))
+
+
+def network_input_width(num_scales: int, local_shape: bool) -> int:
+    """d, the length of :func:`network_input` per face: the 22 signatures, them diffused
+    at each of `num_scales` scales, and 5 local-shape values a scale with `local_shape`."""
+    return NUM_FEATURES * (1 + num_scales) + (LOCAL_SHAPE_PER_SCALE * num_scales if local_shape else 0)
+
+
+def network_input(
+    X: np.ndarray,
+    area: np.ndarray,
+    graph: DualGraph,
+    context_scales: tuple[float, ...] = (),
+    *,
+    local_shape_of: tuple[np.ndarray, np.ndarray] | None = None,
+    cache: ArrayCache | None = None,
+) -> np.ndarray:
+    """The classifier's input per face: the 22 signatures, then the same diffused at each
+    of `context_scales`, then (given the mesh) the local shape at each of them (see
+    :mod:`scribbleseg_core.signatures.context`).
+
+    The diffused parts are cached on disk (`cache`, default the user cache's ``context``
+    folder): their sparse factorizations cost 0.1–1 s a shape and hold the interpreter
+    meanwhile.
+
+    Parameters
+    ----------
+    X : (m, 22) float64 ndarray
+    area : (m,) float64 ndarray
+        Face areas of the unit-area mesh.
+    graph : DualGraph
+    context_scales : tuple of float
+    local_shape_of : ((n, 3) float64 ndarray, (m, 3) int64 ndarray), optional
+        V and F of the unit-area mesh: append :func:`~scribbleseg_core.signatures.context.local_shape`.
+
+    Returns
+    -------
+    (m, 22 · (1 + s) + 5 · s) float64 ndarray
+        s = len(context_scales); the last 5 · s columns only with `local_shape_of`.
+    """
+    from scribbleseg_core.signatures.context import diffuse_face_values, local_shape
+
+    scales = tuple(float(t) for t in context_scales)
+    cache = cache or ArrayCache(kind="context")
+    parts = [X, cache.get_or_compute(
+        hash_arrays(X, area, graph.pairs, meta={"context": list(scales), "version": 1}),
+        lambda: diffuse_face_values(graph, area, X, scales),
+        shape=(len(X), X.shape[1] * len(scales)),
+    )]
+    if local_shape_of is not None:
+        V, F = local_shape_of
+        parts.append(cache.get_or_compute(
+            hash_arrays(V, F, meta={"local_shape": list(scales), "version": 1}),
+            lambda: local_shape(V, F, graph, area, scales),
+            shape=(len(X), LOCAL_SHAPE_PER_SCALE * len(scales)),
+        ))
+    return np.hstack(parts)
+
+
+def prepare_shape(
+    mesh: Mesh,
+    file_scribble: np.ndarray | None = None,
+    *,
+    num_patches: int = 50,
+    feature_params: FeatureParams = FeatureParams(),
+    cache: ArrayCache | None = None,
+    X: np.ndarray | None = None,
+) -> ShapeData:
+    """Features (cached), dual graph and patches of one shape.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    file_scribble : (m0,) int ndarray, optional
+        Scribble label per *file* face (-1 unscribbled), as from ``Scribbles.face_labels``.
+    num_patches : int
+    feature_params : FeatureParams
+    cache : ArrayCache, optional
+    X : (m, 22) ndarray, optional
+        Precomputed face features (skips the cache).
+    """
+    V = mesh.normalized()
+    F = mesh.F
+    if X is None:
+        X = cached_face_features(mesh.V, F, feature_params, cache=cache)
+    scribble = np.full(len(F), -1, np.int64)
+    if file_scribble is not None:
+        # a repaired face is scribbled if its own file face was
+        scribble = np.asarray(file_scribble, dtype=np.int64)[mesh.proc_to_file]
+    graph = dual_graph(V, F)
+    patch = over_segment(graph, num_patches, scribble_labels=scribble if (scribble >= 0).any() else None)
+    pairs, _ = patch_adjacency(graph, patch)
+    # the context cache sits beside a given feature cache (else the user cache's)
+    context_cache = None if cache is None else ArrayCache(cache.folder.parent / f"{cache.folder.name}-context")
+    return ShapeData(mesh, X, face_areas(V, F), graph, patch, pairs, scribble, context_cache)

@@ -1,0 +1,370 @@
+"""``scribbleseg bench``: the PSB evaluation, reproducing the paper's tables.
+
+Modes (per category, shapes in natural id order):
+
+train
+    All shapes scribbled; score the labels the optimization gives them (Table 1).
+test
+    K folds by sorted id: train on the other folds' scribbled shapes, predict the held-out
+    fold without its scribbles; every shape predicted once (Table 2 used leave-one-out:
+    ``--folds 20``).
+scribbled
+    Only N shapes keep their scribbles (drawn with a fixed, reported seed); train on them,
+    predict and score the others.
+given
+    Train on the shapes that have a scribble file and score them (``given_scribbled``);
+    predict and score the others (``given_unscribbled``). For collections like the demo
+    assets, scribbled on a few shapes only.
+
+Scores: against the label maps (label ids are the segments) and against the PSB human
+segmentations (predicted labels split into connected components, scored against each human
+segmentation, averaged). Predicted ``.seg`` files are written per shape, and every reported
+Rand Index error is recomputed from those files before the report is written.
+"""
+
+from __future__ import annotations
+
+import json
+import resource
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from scribbleseg_core.engine.optimize import SegmentParams, segment_collection
+from scribbleseg_core.engine.predict import predict_shape
+from scribbleseg_core.engine.shape import prepare_shape
+from scribbleseg_core.evaluation.metrics import (
+    consistency_errors,
+    cut_discrepancy,
+    hamming_distance,
+    labeling_accuracy,
+    rand_index_error,
+    rand_index_error_area,
+    split_components,
+)
+from scribbleseg_core.evaluation.psb import categories as list_categories
+from scribbleseg_core.formats.mesh import Mesh, find_meshes, load_mesh
+from scribbleseg_core.formats.scribbles import Scribbles, Stroke, read_scribbles
+from scribbleseg_core.formats.seg import read_seg, write_seg
+from scribbleseg_core.geometry.measures import face_areas
+from scribbleseg_core.signatures.features import cached_face_features
+
+
+@dataclass
+class Item:
+    mesh: Mesh
+    scribbles: Scribbles | None
+    truth: np.ndarray
+    human: list[np.ndarray] = field(default_factory=list)
+
+
+def load_category(root: Path, cat: str) -> tuple[list[Item], tuple[str, ...], float]:
+    """Meshes, scribbles, label maps and human segmentations; seconds of feature extraction."""
+    folder = root / cat
+    human = {}
+    if (folder / "benchmark_seg.npz").is_file():
+        with np.load(folder / "benchmark_seg.npz", allow_pickle=False) as z:
+            for key in z.files:
+                human.setdefault(key.rsplit("_", 1)[0], []).append(z[key].astype(np.int64))
+    items, t_feat = [], 0.0
+    for path in find_meshes(folder):
+        mesh = load_mesh(path)
+        scr_path = folder / "scribbles" / f"{path.stem}.json"
+        scr = read_scribbles(scr_path, num_faces=mesh.num_file_faces) if scr_path.is_file() else None
+        t = time.perf_counter()
+        cached_face_features(mesh.V, mesh.F)
+        t_feat += time.perf_counter() - t
+        truth = read_seg(folder / "labels" / f"{path.stem}.seg", mesh.num_file_faces)
+        items.append(Item(mesh, scr, truth, human.get(path.stem, [])))
+    names = next((it.scribbles.label_names for it in items if it.scribbles is not None), None)
+    if names is None:
+        raise ValueError(f"{folder}: no scribble files in scribbles/")
+    return items, names, t_feat
+
+
+def keep_coverage(scr: Scribbles | None, coverage: float) -> Scribbles | None:
+    """Keep the central `coverage` fraction (by count, at least one face) of every stroke."""
+    if scr is None or coverage >= 1:
+        return scr
+    strokes = []
+    for s in scr.strokes:
+        n = len(s.faces)
+        keep = max(1, int(round(n * coverage))) if n else 0
+        start = (n - keep) // 2
+        strokes.append(Stroke(s.label, s.faces[start : start + keep]))
+    return replace(scr, strokes=tuple(strokes))
+
+
+def shape_scores(item: Item, labels_file: np.ndarray) -> dict:
+    """Every metric of one shape's predicted file-face labels."""
+    V, F, gt = item.mesh.V_file, item.mesh.F_file, item.truth
+    area = face_areas(V, F)
+    gce, lce = consistency_errors(labels_file, gt, area)
+    miss, fa, hd = hamming_distance(labels_file, gt, area)
+    out = {
+        "ri_error": rand_index_error(labels_file, gt),
+        "ri_error_area": rand_index_error_area(labels_file, gt, area),
+        "gce": gce, "lce": lce, "hamming_missing": miss, "hamming_false_alarm": fa, "hamming": hd,
+        "cut_discrepancy": cut_discrepancy(V, F, labels_file, gt),
+        "accuracy_area": labeling_accuracy(labels_file, gt, area),
+    }
+    if item.human:
+        comps = split_components(F, labels_file)
+        out["ri_error_human"] = float(np.mean([rand_index_error(comps, h) for h in item.human]))
+    return out
+
+
+def _run(shapes, names, params):
+    snap = None
+    for snap in segment_collection(shapes, names, params):
+        pass
+    return snap
+
+
+def run_mode(items, names, mode: str, params: SegmentParams, *, folds=5, scribbled=None, coverage=1.0, seed=0):
+    """Predicted file-face labels per scored shape: {index: (refined, patch)}, and seconds."""
+    scr = [keep_coverage(it.scribbles, coverage) for it in items]
+    n = len(items)
+    with_scribbles = lambda i: prepare_shape(items[i].mesh, scr[i].face_labels())  # noqa: E731
+    without = lambda i: prepare_shape(items[i].mesh)  # noqa: E731
+    out = {}
+    t = time.perf_counter()
+    if mode == "train":
+        shapes = [with_scribbles(i) for i in range(n)]
+        snap = _run(shapes, names, params)
+        for i, (s, lab, pl) in enumerate(zip(shapes, snap.labels, snap.patch_labels)):
+            out[i] = (s.mesh.labels_to_file(lab), s.mesh.labels_to_file(pl))
+    elif mode == "test":
+        fold_of = np.arange(n) * folds // n
+        for f in range(folds):
+            snap = _run([with_scribbles(i) for i in np.flatnonzero(fold_of != f)], names, params)
+            for i in np.flatnonzero(fold_of == f):
+                s = without(i)
+                lab, pl = predict_shape(snap.model, s)
+                out[int(i)] = (s.mesh.labels_to_file(lab), s.mesh.labels_to_file(pl))
+    elif mode in ("scribbled", "given"):
+        if mode == "scribbled":
+            chosen = np.sort(np.random.default_rng(seed).choice(n, size=scribbled, replace=False))
+        else:
+            chosen = np.array([i for i in range(n) if scr[i] is not None])
+        shapes = [with_scribbles(i) for i in chosen]
+        snap = _run(shapes, names, params)
+        if mode == "given":
+            for i, s, lab, pl in zip(chosen, shapes, snap.labels, snap.patch_labels):
+                out[("given_scribbled", int(i))] = (s.mesh.labels_to_file(lab), s.mesh.labels_to_file(pl))
+        for i in sorted(set(range(n)) - set(chosen.tolist())):
+            s = without(i)
+            lab, pl = predict_shape(snap.model, s)
+            out[("given_unscribbled", i) if mode == "given" else i] = (s.mesh.labels_to_file(lab), s.mesh.labels_to_file(pl))
+    else:
+        raise ValueError(f"mode must be 'train', 'test', 'scribbled' or 'given'; got {mode!r}")
+    return out, time.perf_counter() - t
+
+
+def _mean(rows, key):
+    vals = [r[key] for r in rows if key in r and np.isfinite(r[key])]
+    return float(np.mean(vals)) if vals else float("nan")
+
+
+def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5, scribbled=(1, 3, 5, 10),
+          coverage=1.0, refine=True, seed=0, params: SegmentParams | None = None, progress=None) -> dict:
+    """Run the benchmark and write the report into `out`; returns the report."""
+    params = replace(params or SegmentParams(), refine=refine)
+    cats = cats or list_categories(root)
+    report = {"settings": {"modes": list(modes), "folds": folds, "scribbled": list(scribbled), "coverage": coverage,
+                           "refine": refine, "seed": seed, "init": params.init,
+                           "context_scales": list(params.context_scales),
+                           "local_shape": params.local_shape,
+                           "propagation_contrast": params.propagation.contrast,
+                           "propagation_walk": params.propagation.walk,
+                           "propagation_convex": params.propagation.convex,
+                           "cross_fit": params.cross_fit,
+                           "cross_fit_folds": params.cross_fit_folds,
+                           "cross_fit_repeats": params.cross_fit_repeats,
+                           "stroke_network": params.stroke_network,
+                           "stroke_network_min_accuracy": params.stroke_network_min_accuracy,
+                           "cores": params.cores is not None,
+                           "network_seed": params.network.seed}, "categories": {}}
+    runs = [(m, None) for m in modes if m != "scribbled"] + [("scribbled", k) for k in (scribbled if "scribbled" in modes else [])]
+    for cat in cats:
+        items, names, t_feat = load_category(root, cat)
+        entry = {"shapes": len(items), "feature_seconds_per_shape": t_feat / len(items)}
+        for mode, k in runs:
+            key = mode if k is None else f"scribbled_{k}"
+            if progress:
+                progress(f"{cat} {key}")
+            preds, sec = run_mode(items, names, mode, params, folds=folds, scribbled=k, coverage=coverage, seed=seed)
+            groups: dict[str, dict] = {}
+            for idx, pair in preds.items():
+                group, i = idx if isinstance(idx, tuple) else (key, idx)
+                groups.setdefault(group, {})[i] = pair
+            for group, gpreds in groups.items():
+                rows, rows_patch = {}, {}
+                for i, (lab, pl) in gpreds.items():
+                    stem = items[i].mesh.name
+                    write_seg(out / cat / group / f"{stem}.seg", lab)
+                    write_seg(out / cat / group / f"{stem}.patch.seg", pl)
+                    rows[stem] = shape_scores(items[i], lab)
+                    rows_patch[stem] = {"ri_error": rand_index_error(pl, items[i].truth)}
+                summary = {m: _mean(rows.values(), m) for m in next(iter(rows.values()))}
+                summary["ri_error_patch"] = _mean(rows_patch.values(), "ri_error")
+                summary["seconds_per_shape"] = sec / len(items)
+                summary["scored_shapes"] = len(rows)
+                entry[group] = {"summary": summary, "shapes": rows}
+        entry["peak_memory_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        report["categories"][cat] = entry
+    return finish_report(root, out, report)
+
+
+def finish_report(root: Path, out: Path, report: dict) -> dict:
+    """Verify `report` against the .seg files in `out`, average it over categories, and write
+    ``report.json``, ``report.md`` and ``chart.png`` into `out`; returns the report."""
+    report["verified"] = verify(root, out, report)
+    report["average"] = {key: {m: _mean([c[key]["summary"] for c in report["categories"].values() if key in c], m)
+                               for m in ("ri_error", "ri_error_human", "ri_error_patch", "seconds_per_shape")}
+                         for key in {k for c in report["categories"].values() for k in c if isinstance(c[k], dict)}}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "report.json").write_text(json.dumps(report, indent=1))
+    (out / "report.md").write_text(markdown(report, root))
+    chart(report, root, out / "chart.png")
+    return report
+
+
+def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
+    """One report from benchmarks run apart (say one per core, over different categories,
+    or one mode here and another there).
+
+    Every part must have been run with the same settings but for the modes; a category's
+    mode in several parts is refused. The parts' ``.seg`` files are copied into `out` and
+    every error is verified again from them.
+
+    Parameters
+    ----------
+    root : Path
+        The benchmark data the parts were run on.
+    parts : list of Path
+        Output folders of ``scribbleseg bench``.
+    out : Path
+        Where the merged report goes (may not be one of `parts`).
+    """
+    import shutil
+
+    from scribbleseg_core.errors import ScribblesegError
+
+    out = Path(out)
+    if any(out.resolve() == Path(p).resolve() for p in parts):
+        raise ScribblesegError(f"{out}: the merged report cannot go into one of its parts")
+    merged, all_modes = None, []
+    for part in map(Path, parts):
+        path = part / "report.json"
+        try:
+            rep = json.loads(path.read_text())
+            settings, categories = dict(rep["settings"]), rep["categories"]
+            modes = settings.pop("modes")
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
+            raise ScribblesegError(f"{path}: not a benchmark report ({e})") from None
+        if merged is None:
+            merged = {"settings": settings, "categories": {}}
+        elif settings != merged["settings"]:
+            raise ScribblesegError(f"{path}: run with other settings than {parts[0]}: {settings} vs {merged['settings']}")
+        all_modes += [m for m in modes if m not in all_modes]
+        for cat, entry in categories.items():
+            have = merged["categories"].setdefault(cat, {})
+            twice = [key for key, val in entry.items() if isinstance(val, dict) and key in have]
+            if twice:
+                raise ScribblesegError(f"{path}: category {cat} ({', '.join(twice)}) is in more than one part")
+            have.update({key: val for key, val in entry.items() if isinstance(val, dict) or key not in have})
+            if (part / cat).is_dir():
+                shutil.copytree(part / cat, out / cat, dirs_exist_ok=True)
+    if merged is None:
+        raise ScribblesegError("no reports to merge")
+    merged["settings"] = {"modes": all_modes, **merged["settings"]}
+    merged["categories"] = dict(sorted(merged["categories"].items()))
+    return finish_report(root, out, merged)
+
+
+def verify(root: Path, out: Path, report: dict) -> bool:
+    """Recompute every shape's Rand Index error from the written .seg files; raise on mismatch."""
+    for cat, entry in report["categories"].items():
+        for key, val in entry.items():
+            if not isinstance(val, dict):
+                continue
+            for stem, row in val["shapes"].items():
+                truth = read_seg(root / cat / "labels" / f"{stem}.seg")
+                pred = read_seg(out / cat / key / f"{stem}.seg", len(truth))
+                again = rand_index_error(pred, truth)
+                if not np.isclose(again, row["ri_error"], atol=1e-12):
+                    raise AssertionError(f"{cat}/{key}/{stem}: report says {row['ri_error']}, .seg gives {again}")
+    return True
+
+
+def _paper(root: Path) -> dict:
+    path = root / "paper_results.json"
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def markdown(report: dict, root: Path) -> str:
+    paper = _paper(root)
+    t1 = paper.get("table1_training_shapes", {})
+    t2 = paper.get("table2_leave_one_out", {})
+    lines = ["# scribbleseg on PSB", "", f"Settings: `{json.dumps(report['settings'])}`", ""]
+    keys = {k for c in report["categories"].values() for k in c if isinstance(c[k], dict)}
+    # train, test, then scribbled_N by N (not scribbled_10 before scribbled_3)
+    keys = sorted(keys, key=lambda k: (k.rstrip("0123456789"), int(k[len(k.rstrip("0123456789")):] or 0)))
+    for key in keys:
+        ref = t1 if key == "train" else t2 if key == "test" else {}
+        methods = list(ref)
+        extra = "".join(f" {mth} |" for mth in methods)
+        lines += [f"## {key}", "", "| category | ours RI err | ours (patch) | vs human | GCE | LCE | Hamming | CD | s/shape |" + extra,
+                  "|---" * (9 + len(methods)) + "|"]
+        for cat, c in report["categories"].items():
+            if key not in c:
+                continue
+            s = c[key]["summary"]
+            lines.append(f"| {cat} | {s['ri_error']:.3f} | {s['ri_error_patch']:.3f} | {s.get('ri_error_human', float('nan')):.3f} | "
+                         f"{s['gce']:.3f} | {s['lce']:.3f} | {s['hamming']:.3f} | {s['cut_discrepancy']:.3f} | "
+                         f"{s['seconds_per_shape']:.1f} |" + "".join(f" {ref[mth].get(cat, float('nan')):.3f} |" for mth in methods))
+        avg = report["average"][key]
+        cats = [c for c in report["categories"] if key in report["categories"][c]]
+        lines.append(f"| **average** | **{avg['ri_error']:.3f}** | {avg['ri_error_patch']:.3f} | {avg['ri_error_human']:.3f} | | | | | "
+                     f"{avg['seconds_per_shape']:.1f} |" + "".join(f" {np.nanmean([ref[mth].get(c, np.nan) for c in cats]):.3f} |" for mth in methods))
+        lines.append("")
+    lines += ["## cost", "", "| category | features s/shape (this run: near 0 when cached; `make bench` times them cold) | peak memory MB |", "|---|---|---|"]
+    for cat, c in report["categories"].items():
+        lines.append(f"| {cat} | {c['feature_seconds_per_shape']:.2f} | {c['peak_memory_mb']:.0f} |")
+    lines += ["", f"Every Rand Index error above was recomputed from the written .seg files: {report['verified']}.", ""]
+    return "\n".join(lines)
+
+
+def chart(report: dict, root: Path, path: Path) -> None:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    paper = _paper(root)
+    ref = {"train": paper.get("table1_training_shapes", {}).get("paper_train", {}),
+           "test": paper.get("table2_leave_one_out", {}).get("paper_test", {})}
+    keys = [k for k in ("train", "test") if any(k in c for c in report["categories"].values())]
+    if not keys:
+        return
+    fig, axes = plt.subplots(len(keys), 1, figsize=(11, 3.2 * len(keys)), squeeze=False)
+    for ax, key in zip(axes[:, 0], keys):
+        cats = [c for c in report["categories"] if key in report["categories"][c]]
+        x = np.arange(len(cats))
+        ours = [report["categories"][c][key]["summary"]["ri_error"] for c in cats]
+        theirs = [ref[key].get(c, np.nan) for c in cats]
+        ax.bar(x - 0.2, ours, 0.4, label="scribbleseg")
+        ax.bar(x + 0.2, theirs, 0.4, label="Shu et al.")
+        ax.set_xticks(x, cats, rotation=0, fontsize=8)
+        ax.set_ylabel("Rand Index error")
+        ax.set_title(f"{key} shapes")
+        ax.legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,1 @@
+"""Geometry of triangle meshes: face measures, topology, Laplacians and the face (dual) graph."""

@@ -1,0 +1,1 @@
+"""Infrastructure with no knowledge of meshes: atomic file writes and the on-disk array cache."""

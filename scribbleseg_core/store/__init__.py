@@ -1,0 +1,1 @@
+"""What the engine produces, on disk: trained model folders and app sessions."""

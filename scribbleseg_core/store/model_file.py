@@ -1,0 +1,191 @@
+"""Save and load trained models as plain files that cannot execute code on load.
+
+A model folder holds three files:
+
+``model.json``
+    The schema, version :data:`VERSION`::
+
+        format          "scribbleseg-model"
+        version         2
+        scribbleseg     the package version that wrote it (informational)
+        feature_version the per-face signatures' definition it was trained on
+        label_names     k names
+        network         {"num_inputs", "hidden", "dropout"}: the classifier's architecture
+        inputs          {"context_scales", "local_shape"}: what the classifier reads per face
+        patches         {"bins", "smooth", "delta"}: patch descriptors and the feature term
+        prediction      {"lam", "refine", "refinement", "cores", "propagation"}: the
+                        energies used on new shapes (and in the app's preview)
+
+    Nothing else is read: training-only settings are not stored.
+``weights.pt``
+    The classifier's torch state dict, read with ``weights_only=True``.
+``arrays.npz``
+    Input standardization (``mean``, ``std``) and the patch encoder's ranges and codebook,
+    read with ``allow_pickle=False``.
+
+Any change to what prediction needs bumps :data:`VERSION`; files of another version are
+refused with both versions named (retrain to get a current file).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from scribbleseg_core import __version__
+from scribbleseg_core.engine.cores import CoreParams
+from scribbleseg_core.engine.network import FaceClassifier, NetworkParams
+from scribbleseg_core.engine.optimize import SegmentParams, TrainedModel
+from scribbleseg_core.engine.patch_features import PatchEncoder
+from scribbleseg_core.engine.propagate import PropagateParams
+from scribbleseg_core.engine.refine import RefineParams
+from scribbleseg_core.engine.shape import network_input_width
+from scribbleseg_core.errors import ModelFileError
+from scribbleseg_core.infra.atomic import atomic_write_bytes, atomic_write_text
+from scribbleseg_core.signatures.features import FEATURE_VERSION
+
+FORMAT = "scribbleseg-model"
+#: The schema version this scribbleseg writes and reads.
+VERSION = 2
+
+
+def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
+    """Write `model` into `folder` (created if needed); each file atomically, ``model.json`` last."""
+    import torch
+
+    folder = Path(folder)
+    clf, enc, p = model.classifier, model.encoder, model.params
+    buf = io.BytesIO()
+    torch.save(clf.net.state_dict(), buf)
+    arrays = io.BytesIO()
+    np.savez(arrays, lo=enc.lo, hi=enc.hi, hks_mean=enc.hks_mean, hks_std=enc.hks_std,
+             codebook=enc.codebook, mean=clf.mean, std=clf.std)
+    meta = {
+        "format": FORMAT,
+        "version": VERSION,
+        "scribbleseg": __version__,
+        "feature_version": FEATURE_VERSION,
+        "label_names": list(model.label_names),
+        "network": {"num_inputs": clf.num_inputs, "hidden": list(clf.params.hidden), "dropout": clf.params.dropout},
+        "inputs": {"context_scales": list(p.context_scales), "local_shape": p.local_shape},
+        "patches": {"bins": enc.bins, "smooth": enc.smooth, "delta": model.delta},
+        "prediction": {
+            "lam": p.lam,
+            "refine": p.refine,
+            "refinement": dataclasses.asdict(p.refinement),
+            "cores": None if p.cores is None else dataclasses.asdict(p.cores),
+            "propagation": dataclasses.asdict(p.propagation),
+        },
+    }
+    atomic_write_bytes(folder / "weights.pt", buf.getvalue())
+    atomic_write_bytes(folder / "arrays.npz", arrays.getvalue())
+    atomic_write_text(folder / "model.json", json.dumps(meta, indent=1) + "\n")
+    return folder
+
+
+def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[str, ...] | None = None) -> TrainedModel:
+    """Read a model folder written by :func:`save_model`.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+    expected_labels : sequence of str, optional
+        Refuse a model trained on another label set.
+
+    Returns
+    -------
+    TrainedModel
+        Its ``params`` hold the stored prediction settings; training-only settings are
+        the defaults.
+
+    Raises
+    ------
+    ModelFileError
+        Missing files, not our format, another schema or feature version, another label
+        set, or weights that do not fit the described network.
+    """
+    folder = Path(folder)
+    meta = _read_meta(folder)
+    names = tuple(meta.get("label_names") or ())
+    if expected_labels is not None and tuple(expected_labels) != names:
+        raise ModelFileError(
+            f"trained on labels {list(names)}, but this collection uses {list(expected_labels)}", folder
+        )
+    try:
+        net, inputs, patches, pred = (meta[key] for key in ("network", "inputs", "patches", "prediction"))
+        network = dataclasses.replace(NetworkParams(), hidden=tuple(net["hidden"]), dropout=float(net["dropout"]))
+        cores = pred["cores"]
+        params = SegmentParams(
+            lam=float(pred["lam"]),
+            context_scales=tuple(float(t) for t in inputs["context_scales"]),
+            local_shape=bool(inputs["local_shape"]),
+            refine=bool(pred["refine"]),
+            network=network,
+            refinement=RefineParams(**pred["refinement"]),
+            propagation=PropagateParams(**pred["propagation"]),
+            cores=None if cores is None else CoreParams(**{**cores, "propagation": PropagateParams(**cores["propagation"])}),
+        )
+        num_inputs, delta = int(net["num_inputs"]), float(patches["delta"])
+        bins, smooth = int(patches["bins"]), float(patches["smooth"])
+    except KeyError as e:
+        raise ModelFileError(f"model.json lacks {e}, which model format {VERSION} requires", folder) from None
+    except (TypeError, ValueError) as e:
+        raise ModelFileError(f"model.json does not fit model format {VERSION} ({e})"[:300], folder) from None
+    try:
+        clf, encoder = _read_arrays(folder, num_inputs, len(names), network, bins, smooth)
+    except FileNotFoundError as e:
+        raise ModelFileError(f"incomplete model: {Path(e.filename).name} is missing", folder) from None
+    except Exception as e:  # wrong shapes, a pickle, truncated files: all "not a model of ours"
+        raise ModelFileError(f"corrupt or foreign model files ({type(e).__name__}: {e})"[:300], folder) from None
+    expected = network_input_width(len(params.context_scales), params.local_shape)
+    if clf.num_inputs != expected or clf.mean.shape != (expected,):
+        raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
+    return TrainedModel(clf, encoder, delta, names, params)
+
+
+def _read_meta(folder: Path) -> dict:
+    """``model.json`` of `folder`, checked for format, schema version and feature version."""
+    meta_path = folder / "model.json"
+    if not meta_path.is_file():
+        raise ModelFileError("not a scribbleseg model folder (no model.json)", folder)
+    try:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ModelFileError(f"unreadable model.json ({e})", meta_path) from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise ModelFileError(f"not a scribbleseg model (format {meta.get('format') if isinstance(meta, dict) else None!r})", meta_path)
+    version = meta.get("version")
+    if version != VERSION:
+        writer = f", written by scribbleseg {meta['scribbleseg']}" if isinstance(meta.get("scribbleseg"), str) else ""
+        if isinstance(version, int) and version < VERSION:
+            raise ModelFileError(f"model format version {version}{writer}, older than the version {VERSION} this "
+                                 f"scribbleseg reads: train the model again", folder)
+        raise ModelFileError(f"model format version {version!r}{writer}; this scribbleseg reads version {VERSION}: "
+                             f"use the scribbleseg that wrote it, or train the model again", folder)
+    if meta.get("feature_version") != FEATURE_VERSION:
+        raise ModelFileError(
+            f"trained on feature version {meta.get('feature_version')!r}, this scribbleseg computes "
+            f"version {FEATURE_VERSION}: train the model again",
+            folder,
+        )
+    return meta
+
+
+def _read_arrays(folder: Path, num_inputs: int, k: int, network: NetworkParams, bins: int,
+                 smooth: float) -> tuple[FaceClassifier, PatchEncoder]:
+    """The classifier (weights, standardization) and the patch encoder of `folder`."""
+    import torch
+
+    with np.load(folder / "arrays.npz", allow_pickle=False) as z:
+        arr = {key: z[key] for key in z.files}
+    state = torch.load(folder / "weights.pt", map_location="cpu", weights_only=True)
+    clf = FaceClassifier(num_inputs, k, network)
+    clf.net.load_state_dict(state)
+    clf.mean, clf.std, clf.trained = arr["mean"], arr["std"], True
+    encoder = PatchEncoder(arr["lo"], arr["hi"], arr["hks_mean"], arr["hks_std"], arr["codebook"], bins, smooth)
+    return clf, encoder
