@@ -260,7 +260,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="random-walk term of the scribble propagation (default PropagateParams.walk; 0 = off)")
     p.add_argument("--convex", type=_fraction, default=None,
                    help="weight of convex creases against concave ones in the scribble propagation's smoothness and walk "
-                        "(default PropagateParams.convex; 0.1 = the engine before session 11)")
+                        "(default PropagateParams.convex; 0.1 = the dual graph's crease metric)")
     p.add_argument("--cross-fit", type=_fraction, default=None,
                    help="share of the held-out networks in the scribbled shapes' final propagation "
                         "(default SegmentParams.cross_fit; 0 = off)")
@@ -270,10 +270,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stroke-network", type=_non_negative, default=None,
                    help="weight of the stroke network in the labels the model for unseen shapes is trained on, "
                         "where its held-out accuracy on the strokes reaches SegmentParams.stroke_network_min_accuracy "
-                        "(default SegmentParams.stroke_network; 0 = off, the engine before session 13)")
+                        "(default SegmentParams.stroke_network; 0 = off)")
     p.add_argument("--local-shape", action=argparse.BooleanOptionalAction, default=None,
                    help="the local extrinsic shape around each face among the network's inputs "
-                        "(default SegmentParams.local_shape; --no-local-shape: the engine before session 15)")
+                        "(default SegmentParams.local_shape; --no-local-shape: the signatures and their context only)")
     p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
                    help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)

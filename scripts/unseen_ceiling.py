@@ -8,8 +8,8 @@ of the network trained on
   the scribble propagation, guided by the stroke network where it carries over). The engine
   trains that model afresh at its end, so these figures equal the benchmark's refined
   unseen-shape errors, in about a third of the time;
-* ``propagated``: the training shapes' propagated scribble labels (the engine before the
-  stroke network of session 13);
+* ``propagated``: the training shapes' propagated scribble labels (without the stroke
+  network's guide);
 * ``truth``: the training shapes' ground-truth labels, a diagnostic ceiling (a fully
   supervised network on the same inputs), never a result.
 

@@ -35,15 +35,15 @@ class CoreParams:
     ----------
     fraction : float
         A face is in its part's core if its crease-aware distance to the part's boundary is
-        at least this fraction of the largest such distance in the part.
+        at least this fraction of the largest such distance in the part. Default 0.5.
     min_area : float
         Parts (connected components of one label) smaller than this fraction of the surface
         get no core; the propagation may then absorb them. 0.005 is the threshold of the
-        PSB scribble protocol (a part that small gets no stroke either).
+        PSB scribble protocol (a part that small gets no stroke either). Default 0.005.
     min_confidence : float
         Core faces also need the network's probability of their label to reach this. A
         predicted part where the network is nowhere this sure gets no core, and the
-        propagation lets its neighbours absorb it.
+        propagation lets its neighbours absorb it. Default 0.8.
     propagation : PropagateParams
         The propagation from the cores. The distance term is off (cores are dense, so
         the nearest-core distance says little); smoothness 64 rather than the scribbles'
@@ -51,15 +51,8 @@ class CoreParams:
 
     Notes
     -----
-    Chosen on the 12 PSB categories here (unseen shapes, 5 folds, refined Rand Index
-    error, mean 0.1055 without cores), on fixed network predictions: smoothness 16 / 32 /
-    64 / 128 gave 0.101 / 0.099 / 0.095 / 0.096; without cores smoothness 64 gave 0.099,
-    Plier 0.053 → 0.096 (its small parts merged); `min_confidence` 0.6 / 0.8 / 0.9 gave
-    0.096 / 0.095 / 0.095; `fraction` 0.3 / 0.5 / 0.7 gave 0.096 / 0.095 / 0.098.
-    Keeping the propagation's distance term (0.1) made Chair and Glasses worse (0.027 →
-    0.036, 0.041 → 0.048): with dense cores its normalization blows up. Full benchmark
-    (`scribbleseg bench`, unseen shapes): 0.105 → 0.095, better on 11 of 12 categories
-    (Bust 0.339 → 0.289, Vase 0.174 → 0.144), worse on Plier (0.053 → 0.059).
+    The defaults (0.5, 0.005, 0.8, smoothness 64) were chosen on the 12 PSB categories, on a
+    plateau of the unseen shapes' error (``docs/benchmarks.md``).
     """
 
     fraction: float = 0.5

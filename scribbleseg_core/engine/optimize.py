@@ -44,129 +44,70 @@ Phase = Literal["graphcut", "train", "refine", "retrain", "crossfit", "done"]
 
 @dataclass(frozen=True)
 class SegmentParams:
-    """Parameters of the whole pipeline.
+    """Parameters of the whole pipeline (the engine's public settings).
 
     Attributes
     ----------
     lam : float
         λ of the feature term (the paper: 1).
-    max_iterations : int
-        Network/graph-cut rounds at most (the paper converges in about 4).
-    tolerance : float
-        Stop when the total energy falls by less than this fraction.
     context_scales : tuple of float
-        Beyond the paper: diffusion times of the context added to the network's input
-        (the 22 signatures diffused over the surface); ``()`` gives the paper's 22 inputs.
+        Beyond the paper: diffusion times of the context added to the network's input (the 22
+        signatures diffused over the surface, :mod:`scribbleseg_core.signatures.context`);
+        ``()`` gives the paper's 22 inputs. Default (0.002, 0.01, 0.05), in units of the
+        unit-area mesh.
     local_shape : bool
-        Beyond the paper: the network's input also holds the local extrinsic shape around
-        each face at each of `context_scales` (:func:`scribbleseg_core.signatures.context.local_shape`:
-        local PCA, normal agreement and a signed multi-scale mean curvature; 5 values a
-        scale). The 22 signatures are intrinsic or volumetric and say little about how
-        the surface bends in space. Measured in session 15 with ``scripts/unseen_ceiling.py``
-        (the benchmark's unseen-shape figures, 5 folds, 12 PSB categories) against the
-        published runs without it: network seed 0 0.0885 → 0.0869, seed 1 0.0867 → 0.0848,
-        seed 2 0.0850 → 0.0855 (both rerun on one machine); mean of the three 0.0867 →
-        0.0857. On seeds 0 and 1 better on Mech (0.084 → 0.073), Human (0.077 → 0.070),
-        FourLeg (0.150 → 0.143) and Plier, worse on Glasses (0.041 → 0.049, 0.046 → 0.051),
-        Octopus (+0.003) and Table (+0.002); Bust moves with the seed (+0.008 / −0.008 /
-        +0.017). A signed mean curvature alone (cotangent Laplacian, diffused at the same
-        scales) was noise on the 5 categories run (Bust 0.302, Vase 0.147, Glasses 0.043).
-        Only this one set of features was tried, so it is not fit beyond that choice.
+        Beyond the paper: the network also reads the local extrinsic shape at each context
+        scale (:func:`~scribbleseg_core.signatures.context.local_shape`: local PCA, normal
+        agreement, signed multi-scale mean curvature; 5 values a scale). Default True.
+    max_iterations : int
+        Network/graph-cut rounds at most (the paper converges in about 4). Default 6.
+    tolerance : float
+        Stop when the total energy falls by less than this fraction. Default 1e-3.
     refine : bool
-        Run the face-level refinement after convergence: on scribbled shapes the scribble
-        propagation of :mod:`scribbleseg_core.engine.propagate` (`propagation`; strokes and
-        creases, then, with `retrain`, once more with the retrained network), on unseen
-        shapes :func:`refine_labels` (`refinement`), then, with `cores`, the propagation
-        from the confident cores of the refined parts.
+        Face-level result after the alternation: on scribbled shapes the scribble propagation
+        (:mod:`~scribbleseg_core.engine.propagate`), on unseen shapes
+        :func:`~scribbleseg_core.engine.refine.refine_labels` and then, with `cores`, the
+        propagation from part cores. False keeps the paper's patch-level result.
+    init : {"propagate", "geodesic", "paper"}
+        The initial graph cut: ``"paper"`` uses eq. 1 alone; the others add, for this cut
+        only, the area fraction of each patch whose faces a scribble-made labeling gives
+        another label: the scribble propagation (``"propagate"``, default) or each face's
+        nearest scribble (``"geodesic"``). Eq. 1 alone has graph cuts' shrinking bias.
     retrain : bool
         After the refinement, train the network afresh on the refined face labels (the model
-        then used for unseen shapes), and propagate the scribbles once more with its
-        log-probabilities (weight ``propagation.network``). Measured on PSB, unseen shapes
-        (5 folds): Bird 0.129 → 0.124, Glasses 0.097 → 0.063, FourLeg 0.184 → 0.175; the
-        patch-level labels the network was trained on before are noisier.
+        for unseen shapes) and propagate the scribbles once more with its log-probabilities
+        (weight ``propagation.network``). Default True.
     retrain_near : float, optional
-        Retrain only on each shape's faces whose crease-aware distance to the nearest
-        stroke is within this quantile (e.g. 0.5: the nearer half), so that a part
-        instance far from any stroke (one leg of four painted) does not teach the network
-        the label the propagation gave it. Experimental; off by default.
+        Retrain only on each shape's faces whose crease-aware distance to the nearest stroke
+        is within this quantile (0.5: the nearer half). Default None (all faces).
+    network : NetworkParams
+    refinement : RefineParams
+    propagation : PropagateParams
     cores : CoreParams, optional
-        Unseen shapes, after the refinement: take the confident cores of the predicted
-        parts as scribbles and propagate from them with strong crease- and SDF-aware
-        smoothness (:mod:`scribbleseg_core.engine.cores`). ``None`` stops at the refinement.
-        Full PSB benchmark, unseen shapes (5 folds): see the README.
+        Unseen shapes, after the refinement: take the confident cores of the predicted parts
+        as scribbles and propagate from them (:mod:`~scribbleseg_core.engine.cores`). None
+        stops at the refinement.
     cross_fit : float
-        Scribbled shapes, with `retrain`: the final propagation's network term uses, per shape,
-        ``log((1 − a) P + a P_others)``, a = `cross_fit`, P the retrained network's
-        probabilities and P_others the mean of those of networks trained the same way on the
-        other shapes only (`cross_fit_folds` folds in each of `cross_fit_repeats` splits of the
-        shapes, :func:`cross_fit_folds`). A network trained on a shape's own propagated labels
-        mostly echoes them, their misplaced boundaries too; one that never saw them gives a
-        second opinion learned from the rest of the collection. 0 turns it off; it needs 2
-        scribbled shapes. It costs ``repeats · (folds − 1)`` more trainings of the collection
-        and changes neither the model nor the unseen shapes. Chosen
-        on cached network predictions of the 12 PSB categories (all shapes scribbled; fit, not
-        held out), mean Rand Index error 0.0529 without: with 4 folds, a = 0.3 / 0.5 / 0.6 / 0.7
-        / 0.8 / 0.9 gave 0.0521 / 0.0516 / 0.0512 / 0.0504 / 0.0505 / 0.0519 (a = 0.7: better on
-        9 of 12, Bird 0.068 → 0.063, Vase 0.080 → 0.071, Mech 0.032 → 0.029; worse on Octopus
-        0.031 → 0.033, Chair and Plier by 0.0003); P_others alone was far worse (Bust 0.123 →
-        0.208, Vase 0.172), and a second network trained on all shapes with another seed in its
-        place changed nothing (Bird 0.0675 → 0.0670), so the gain is the held-out opinion, not
-        averaging; geometric mixing was worse (a = 0.5: 0.054).
+        Scribbled shapes, with `retrain`: the final propagation's network term is
+        ``log((1 − a) P + a P_others)``, a = `cross_fit` (default 0.7), P the retrained
+        network's probabilities and P_others the mean of those of networks trained the same
+        way on the other shapes only. 0 turns it off; it needs 2 scribbled shapes and costs
+        ``cross_fit_repeats · cross_fit_folds`` trainings on part of the collection. It
+        changes neither the model nor the unseen shapes.
     cross_fit_folds : int
-        Folds of the cross-fitting (at most one per shape). 2, the cheapest: mean Rand Index
-        error on the 12 PSB categories (cached network predictions, as above) with 2 / 4 / 10
-        folds 0.0506 / 0.0504 / 0.0508, all shapes scribbled; on the first 3 (5) shapes of each
-        category, the whole engine, 0.0549 (0.0522) with 2 folds, 0.0562 (0.0536) with 4 and
-        0.0591 (0.0589) without cross-fitting. Equal within the spread between categories (Bust
-        alone moves by ±0.02), and with 2 folds the held-out networks train on a third of the
-        faces they do with 4 (20 shapes; half with 3 shapes: 2 s of cross-fitting instead of
-        4 s; 5 shapes: 3 s instead of 10 s).
+        Folds of the cross-fitting (at most one per shape). Default 2.
     cross_fit_repeats : int
-        Cross-fit this many times, each with another split of the shapes into
-        `cross_fit_folds` folds (:func:`cross_fit_folds`), and average the held-out
-        probabilities: P_others is then the mean opinion of `cross_fit_repeats` networks that
-        never saw the shape, not one split's luck. Which split a shape falls in moves Bust by
-        ±0.02; two splits of 2 folds on the 12 PSB categories (cached network predictions, all
-        shapes scribbled): 0.0506 and 0.0504 each, **0.0490** averaged (better than the first
-        split alone on 10 of 12: Bust 0.129 → 0.120, Bird 0.062 → 0.060, Plier 0.038 → 0.0355;
-        worse on FourLeg 0.078 → 0.079 and Table 0.0133 → 0.0136), while
-        averaging the 2- and 4-fold splits gave 0.0491 for 6 trainings instead of 4. Repeats
-        that cannot split the shapes anew (2 shapes) are skipped.
+        Cross-fit this many times with different splits of the shapes
+        (:func:`cross_fit_folds`) and average the held-out probabilities. Default 2.
     stroke_network : float
-        With `refine` and `retrain`: the model handed on for unseen shapes is a network
-        trained on the scribble propagation plus this weight times a *stroke network*'s
-        −log-probabilities; the scribbled shapes' own labels, and the cross-fitting, are
-        those without it. The stroke network is trained on the stroke faces of all
-        scribbled shapes only, so it has learned what each part looks like across the
-        collection, yet never a propagated label. It moves boundaries the creases and the
-        distance to the strokes leave open: on PSB Bird the wing's label ran across the
-        front of the body, which it joins with no crease, and on Human the upper leg's label
-        ran up the hips and an unstroked thigh took the shin's label (training labels 93.4 →
-        95.7% and 87.9 → 91.4% face-correct, area-weighted). Full PSB benchmark, unseen
-        shapes (5 folds, seed 0, both runs on one machine): 0 / 0.05 gave 0.0916 / **0.0885**
-        (Armadillo 0.062 → 0.048, Bird 0.093 → 0.081, Human 0.086 → 0.077; worse: Plier 0.058
-        → 0.061, Octopus 0.034 → 0.035, FourLeg 0.149 → 0.150); with network seed 1 0.090 →
-        0.0867. With few painted shapes it is mixed (README, *A few painted shapes*: 3 shapes
-        0.149 → 0.154, 5 shapes 0.118 → 0.120, 10 shapes 0.108 → 0.102; Table with 5 painted
-        0.010 → 0.049 over three seeds). Scribbled shapes are
-        unchanged by construction (0.0468). Weights 0.02 / 0.03 were no better, 0.1 hurt Mech
-        (0.078 → 0.109, ungated). Fit on these categories, not held out. 0 turns it off
-        (``bench --stroke-network 0``).
+        With `refine` and `retrain`: the model for unseen shapes learns the scribble
+        propagation plus this weight (default 0.05) times the −log-probabilities of a *stroke
+        network*, trained on the stroke faces of all scribbled shapes only. The scribbled
+        shapes' own labels never see it. 0 turns it off.
     stroke_network_min_accuracy : float
         Use the stroke network only where it carries over between shapes: its held-out
-        accuracy on the strokes (:func:`stroke_network_accuracy`, networks trained on the
-        strokes of half the shapes labeling those of the other half; no ground truth) must
-        reach this, else the propagation alone makes the targets. On the 12 PSB categories
-        (all 20 shapes) it was 0.51 on Bust, 0.67 on Mech and 0.72 on Vase, the three it made
-        worse, and 0.82–1.0 on the nine others (Bird 0.84, FourLeg 0.82, Human 0.91). 0.8
-        sits in that gap, so it is fit on these categories, not held out.
-    init : {"propagate", "geodesic", "paper"}
-        The initial graph cut: ``"paper"`` uses eq. 1 alone (uniform cost on unscribbled
-        patches), which has graph cuts' shrinking bias: with short strokes, cutting
-        around a small stroke is cheaper than cutting at the real part boundaries.
-        The others add, for the initial cut only, the area fraction of each patch whose
-        faces disagree with a face labeling made from the scribbles: the scribble
-        propagation (``"propagate"``) or each face's nearest scribble (``"geodesic"``).
+        accuracy on the strokes (:func:`stroke_network_accuracy`; no ground truth) must
+        reach this. Default 0.8.
     """
 
     lam: float = 1.0

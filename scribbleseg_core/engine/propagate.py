@@ -25,70 +25,42 @@ from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph
 class PropagateParams:
     """Weights of the propagation energy.
 
-    ``U(f, l) = distance · (d_l(f) − min_j d_j(f)) / d̄ − network · log P(l | f)``, where
-    ``d_l`` is the crease-aware geodesic distance to the nearest scribble of label l and
-    ``d̄`` the median distance of a face to its nearest scribble; on every shared edge
-    ``smoothness · (ℓ / mean ℓ) · exp(−concavity / crease)``.
+    ``U(f, l) = distance · (d_l(f) − min_j d_j(f)) / d̄ − network · log P(l | f)
+    − walk · log P_rw(l | f)``, where ``d_l`` is the crease-aware geodesic distance to the
+    nearest scribble of label l, ``d̄`` the median distance of a face to its nearest
+    scribble, P the network's probabilities and ``P_rw`` the random-walker probabilities
+    (:func:`random_walk_probabilities`); on every shared edge
+    ``smoothness · (ℓ / mean ℓ) · exp(−concavity / crease) · c``, with c the SDF contrast
+    factor (:func:`contrast_factor`). The defaults were chosen on the 12 PSB categories
+    (``docs/benchmarks.md``).
 
-    Defaults tuned on the 12 PSB categories with their fixed scribbles (all 20 shapes
-    scribbled, Rand Index error, mean over categories; so these figures are fit, not held
-    out): distance 0.1 beat 0.3, 0.5 and 2 (Chair 0.016 vs 0.041 at 0.3); over crease
-    0.01–0.15 and smoothness 1–64, crease 0.03 with smoothness 16 was best (mean 0.064;
-    0.075 at crease 0.05 with smoothness 4). Categories differ: Bust wants smoothness 48
-    (0.121), Plier 8 (0.055); convex creases counting 0.1 of concave ones beat 0.3 and 1
-    (0.02 came later; see ``convex`` below).
-    The network term helps only when the network was trained on propagated labels: with
-    a network trained on the paper's patch-level labels it made 5 of 6 categories worse
-    (Mech 0.028 → 0.044), with one trained on these labels weight 0.5 beat 0, 0.05, 0.1 and
-    0.2 (Plier 0.077 → 0.059, Glasses 0.058 → 0.046, FourLeg 0.114 → 0.108, Bust 0.138 →
-    0.141); a second round did not help.
-
-    ``contrast`` makes the smoothness cheaper where the shape diameter changes (a limb
-    meeting a torso with no crease between them): each edge's weight is multiplied by
-    ``floor + (1 − floor) · exp(−contrast · Δ² / mean Δ²)``, Δ the difference of the two
-    faces' standardized SDF, ``floor`` = ``contrast_floor``; it acts only when the caller
-    passes the SDF. Contrast 1 with floor 0.5 was the best of 8 settings (SDF alone beat all
-    22 signatures; no floor was worse), chosen on the same 12 categories. Full PSB benchmark
-    against contrast 0: scribbled shapes 0.060 → 0.057 (FourLeg 0.108 → 0.095, Plier 0.059 →
-    0.044; Vase 0.071 → 0.083 worse), unseen shapes 0.110 → 0.105 (better on 9 of 12:
-    Plier 0.070 → 0.053, Glasses 0.053 → 0.041; Mech 0.137 → 0.145 worse), because the
-    network carries over better from these training labels.
-
-    ``walk`` adds ``walk · −log P_rw(l | f)``, the random-walker probabilities of
-    :func:`random_walk_probabilities` (Grady 2006; Lai et al. 2008 on meshes): the chance
-    that a walk from f, crossing concave creases rarely, first reaches a stroke of label
-    l. Unlike the distance to the nearest stroke it sees every path and the whole stroke,
-    so a boundary settles where the crease-weighted "flow" between two strokes is
-    narrowest rather than midway between them. Chosen on cached final network
-    log-probabilities of the 12 categories (all shapes scribbled; fit, not held out):
-    walk 0.25 / 0.5 / 1 gave 0.0549 / 0.0540 / 0.0529 against 0.0569 without (Bust 0.145
-    → 0.123, FourLeg 0.095 → 0.084, Plier 0.044 → 0.037; Glasses 0.039 → 0.041 worse);
-    walk 2 made Glasses (0.042) and Octopus (0.032) worse again. It acts only beside the
-    network term (`log_proba` given, ``network > 0``): alone, with the weak distance term,
-    it made the labels worse at every weight tried (walk 1: Glasses 0.046 → 0.069, Chair
-    0.011 → 0.020; 0.2: Glasses 0.048), and those labels are what the network is
-    retrained on, so the unseen shapes are unchanged by it. Full PSB benchmark (all shapes
-    scribbled): 0.057 → 0.053, better on 8 of 12 categories; worse on Glasses, Table,
-    Chair (0.010 → 0.011) and Octopus (by 0.0005). The live preview pays for
-    it with one sparse factorization per stroke (8k faces: +20–60 ms).
-
-    ``convex`` is how much a convex crease (a ridge) counts against a concave one (a
-    valley) in the smoothness and the walk (:meth:`DualGraph.concavity`); the dual graph's
-    metric, which the distance term, the patches and the unseen shapes' refinement use,
-    keeps ``CONVEX_FACTOR`` (0.1). At 0.1 a 90° ridge cost 0.036 of a smooth edge, so on
-    machined shapes every box edge was a cheap place to end a label: on PSB Mech a part's
-    label ran over the fillet at its foot and onto the neighbouring box's top face, up to
-    the box's edge, and the network learned it (propagated labels 98.3% right, yet the
-    unseen shapes 0.139 against 0.077 from ground-truth training labels, mean of 3
-    seeds). At 0.02 (a 90° ridge 0.51 of a smooth edge) the Mech labels are 99.2% right.
-    Measured on unseen shapes (the networks trained on these labels, seed 0; fit, not
-    held out), against 0.1: Mech 0.143 → 0.078, Plier 0.0585 → 0.0588, Vase 0.144 →
-    0.146, Octopus 0.031 → 0.036; also lowering it in the distance term's metric gave Mech 0.075 but Plier 0.072 and Vase
-    0.158, so it stays in the smoothness only; 0.05 gave Mech 0.137, almost no gain, and 0
-    gave 0.0921 on all 12 categories against 0.0918 at 0.02 (Mech 0.084, Bird 0.096). Full
-    PSB benchmark against 0.1: scribbled shapes 0.0490 → 0.0469 (Mech 0.029 → 0.010, Bird
-    0.060 → 0.056), unseen shapes 0.0952 → 0.0918 (Mech 0.143 → 0.078, Bird 0.105 → 0.102;
-    worse: Bust 0.289 → 0.301, Octopus 0.031 → 0.036, Chair 0.0195 → 0.024).
+    Attributes
+    ----------
+    distance : float
+        Weight of the distance term. Default 0.1.
+    smoothness : float
+        Potts weight of an edge of mean length with no crease. Default 16.
+    crease : float
+        Concavity at which an edge's weight falls to 1/e. Default 0.03.
+    network : float
+        Weight of the network's −log-probabilities, when given. Default 0.5.
+    contrast : float
+        How strongly a jump of the shape diameter between neighbours cheapens the
+        smoothness (a limb meeting a torso with no crease); 0 turns it off, and it acts only
+        when the caller passes the SDF. Default 1.
+    contrast_floor : float
+        The smallest factor the contrast may apply. Default 0.5.
+    walk : float
+        Weight of the random-walker term (Grady 2006; Lai et al. 2008 on meshes): the
+        chance that a walk from a face, crossing concave creases rarely, first reaches a
+        stroke of each label. It acts only beside the network term (`log_proba` given,
+        ``network > 0``). Default 1.
+    convex : float
+        How much a convex crease (a ridge) counts against a concave one (a valley) in the
+        smoothness and the walk (:meth:`DualGraph.concavity`); the crease-aware distance
+        keeps :data:`~scribbleseg_core.geometry.dual_graph.CONVEX_FACTOR`. Default 0.02.
+    max_sweeps : int
+        Alpha-expansion sweeps at most. Default 4.
     """
 
     distance: float = 0.1
