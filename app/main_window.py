@@ -474,7 +474,7 @@ class MainWindow(QMainWindow):
     # ---------------------------------------------------------------- run
 
     def run_collection(self) -> None:
-        """Segment the scribbled shapes and predict the others, in a worker thread."""
+        """Segment the collection (the shapes without scribbles take part as well), in a worker thread."""
         from scribbleseg_app.runner import LazyMeshes, collection_run
 
         m = self.model
@@ -547,7 +547,8 @@ class MainWindow(QMainWindow):
         if isinstance(msg, StepDone):
             snap = msg.snapshot
             for j, labels in zip(msg.indices, msg.file_labels):
-                self._set_result(self._run_indices[j], labels, "labeled")
+                index = self._run_indices[j]
+                self._set_result(index, labels, "labeled" if m.has_scribbles(index) else "predicted")
             if snap.iteration >= 1 and snap.phase in ("train", "graphcut"):
                 self.energy_plot.add(snap.energy.total)
             if snap.done:

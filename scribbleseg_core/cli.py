@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from scribbleseg_core import __version__
+from scribbleseg_core.engine.optimize import METHODS
 from scribbleseg_core.errors import ScribblesegError
 
 
@@ -94,7 +95,7 @@ def _cmd_segment(args) -> int:
                                    f"the mesh has {mesh.num_file_faces}")
         meshes.append(mesh)
     scribbles = [coll.face_labels(path) for path in coll.meshes]
-    params = SegmentParams(refine=not args.no_refine)
+    params = SegmentParams(method=args.method)
     bar = None if args.quiet else _bar(len(meshes), "features")
     last, predicted = None, 0
     for msg in collection_run(meshes, scribbles, coll.label_names, params, num_patches=args.patches):
@@ -132,8 +133,7 @@ def _cmd_predict(args) -> int:
     model = load_model(args.model)
     for path in _progress(args.meshes, args.quiet, "predict"):
         mesh = load_mesh(path)
-        labels, _ = predict_shape(model, prepare_shape(mesh, num_patches=args.patches),
-                                  refine=False if args.no_refine else None)
+        labels = predict_shape(model, prepare_shape(mesh, num_patches=args.patches))
         _write_file_labels(out, mesh, mesh.labels_to_file(labels), model.label_names)
     return 0
 
@@ -144,13 +144,12 @@ def _cmd_bench(args) -> int:
     root = Path(args.data)
     if not (root.is_dir() and any(p.is_dir() and (p / "labels").is_dir() for p in root.iterdir())):
         raise ScribblesegError(f"{root}: not a benchmark folder (expected <Category>/labels, scribbles/ and meshes)")
-    modes = {"train": ["train"], "test": ["test"], "both": ["train", "test"], "scribbled": ["scribbled"], "given": ["given"],
-             "all": ["train", "test", "scribbled"]}[args.mode]
+    modes = {"both": ["train", "test"], "all": ["train", "test", "scribbled", "collection"]}.get(args.mode, [args.mode])
     progress = None if args.quiet else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
     params = _bench_params(args)
     out = _output_folder(args.out)
     report = bench(root, out, modes=modes, cats=args.categories, folds=args.folds,
-                   scribbled=args.scribbled, coverage=args.coverage, refine=args.refine, seed=args.seed,
+                   scribbled=args.scribbled, coverage=args.coverage, seed=args.seed, labels=args.labels,
                    params=params, progress=progress)
     print((out / "report.md").read_text())
     return 0 if report["verified"] else 1
@@ -162,18 +161,12 @@ def _bench_params(args):
 
     from scribbleseg_core.engine.optimize import SegmentParams
 
-    base = SegmentParams()
-    return replace(base, network=replace(base.network, threads=args.threads,
-                                         **({} if args.network_seed is None else {"seed": args.network_seed})),
-                   propagation=replace(base.propagation,
-                                       **({} if args.contrast is None else {"contrast": args.contrast}),
-                                       **({} if args.walk is None else {"walk": args.walk}),
-                                       **({} if args.convex is None else {"convex": args.convex})),
-                   cores=base.cores if args.cores else None,
-                   **({} if args.local_shape is None else {"local_shape": args.local_shape}),
-                   **({} if args.cross_fit is None else {"cross_fit": args.cross_fit}),
-                   **({} if args.cross_fit_repeats is None else {"cross_fit_repeats": args.cross_fit_repeats}),
-                   **({} if args.stroke_network is None else {"stroke_network": args.stroke_network}))
+    base = SegmentParams(method=args.method)
+    given = lambda **kw: {k: v for k, v in kw.items() if v is not None}  # noqa: E731
+    return replace(base, network=replace(base.network, threads=args.threads, **given(seed=args.network_seed)),
+                   propagation=replace(base.propagation, **given(contrast=args.contrast, walk=args.walk,
+                                                                 convex=args.convex)),
+                   **given(local_shape=args.local_shape, rounds=args.rounds))
 
 
 def _cmd_bench_merge(args) -> int:
@@ -225,7 +218,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("folder", help="meshes plus scribble files <name>.json (beside them or in scribbles/)")
     p.add_argument("--out", required=True, help="output folder: <mesh>.seg, <mesh>.ply, model/")
     p.add_argument("--patches", type=int, default=50, help="primitive patches per shape (default 50)")
-    p.add_argument("--no-refine", action="store_true", help="keep the paper's patch-level result")
+    p.add_argument("--method", choices=METHODS, default="face",
+                   help="face: the alternation on faces (default); paper: the paper's patch-level alternation")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=_cmd_segment)
 
@@ -234,48 +228,43 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("meshes", nargs="+")
     p.add_argument("--out", required=True)
     p.add_argument("--patches", type=int, default=50)
-    p.add_argument("--no-refine", action="store_true")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_predict)
 
     p = sub.add_parser("bench", help="evaluate on PSB-style data (../shared/psb) and write a report")
     p.add_argument("data", help="folder of <Category>/ folders with meshes, labels/, scribbles/")
-    p.add_argument("--mode", choices=["train", "test", "both", "scribbled", "given", "all"], default="both",
-                   help="both = train and test; given = train on the shapes that have scribble files, predict the rest")
+    p.add_argument("--mode", choices=["train", "test", "both", "scribbled", "collection", "given", "all"], default="both",
+                   help="train: all shapes painted, scored; test: k folds, held-out shapes predicted; both; "
+                        "scribbled: N painted, the others predicted; collection: N painted, one run on all, the others "
+                        "scored; given: the shapes with scribble files painted, the others predicted")
     p.add_argument("--folds", type=_int_at_least(2), default=5, help="test mode: folds by sorted id (20 = leave-one-out)")
     p.add_argument("--scribbled", type=_int_at_least(1), nargs="+", default=[1, 3, 5, 10],
-                   help="scribbled mode: shapes per category that keep their scribbles")
+                   help="scribbled and collection modes: shapes per category that keep their scribbles")
     p.add_argument("--coverage", type=_fraction, default=1.0, help="keep this central fraction of every stroke")
     p.add_argument("--categories", nargs="+")
-    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
-                   help="face-level refinement (--no-refine: the paper's patch-level result)")
-    p.add_argument("--seed", type=int, default=0, help="scribbled mode: which shapes keep scribbles")
+    p.add_argument("--method", choices=METHODS, default="face",
+                   help="face: the alternation on faces (default); paper: the paper's patch-level alternation")
+    p.add_argument("--labels", choices=["scribbles", "truth"], default="scribbles",
+                   help="what the painted shapes are given: their scribbles (default), or their full ground-truth "
+                        "labels (the learner's ceiling, comparable with fully supervised methods)")
+    p.add_argument("--seed", type=int, default=0, help="scribbled and collection modes: which shapes keep scribbles")
     p.add_argument("--network-seed", type=int, default=None,
                    help="seed of the networks' initialization and face sampling, and of the patch codebook "
                         "(default NetworkParams.seed); rerun with others to see how much a figure owes to it")
-    p.add_argument("--threads", type=_int_at_least(1), default=2, help="torch threads for training (1 when running two benchmarks at once)")
-    p.add_argument("--contrast", type=float, default=None,
-                   help="SDF contrast of the scribble propagation (default PropagateParams.contrast; 0 = off)")
-    p.add_argument("--walk", type=float, default=None,
-                   help="random-walk term of the scribble propagation (default PropagateParams.walk; 0 = off)")
+    p.add_argument("--threads", type=_int_at_least(1), default=None,
+                   help="torch threads for training (default: the cores this process may use; 1 when running two "
+                        "benchmarks at once)")
+    p.add_argument("--rounds", type=_int_at_least(1), default=None, help="network/graph-cut rounds at most")
+    p.add_argument("--contrast", type=_non_negative, default=None,
+                   help="SDF contrast of the face energy's smoothness (default PropagateParams.contrast; 0 = off)")
+    p.add_argument("--walk", type=_non_negative, default=None,
+                   help="random-walk term of the face energy (default PropagateParams.walk; 0 = off)")
     p.add_argument("--convex", type=_fraction, default=None,
-                   help="weight of convex creases against concave ones in the scribble propagation's smoothness and walk "
+                   help="weight of convex creases against concave ones in the face energy's smoothness and walk "
                         "(default PropagateParams.convex; 0.1 = the dual graph's crease metric)")
-    p.add_argument("--cross-fit", type=_fraction, default=None,
-                   help="share of the held-out networks in the scribbled shapes' final propagation "
-                        "(default SegmentParams.cross_fit; 0 = off)")
-    p.add_argument("--cross-fit-repeats", type=_int_at_least(1), default=None,
-                   help="splits of the shapes the cross-fitting averages over "
-                        "(default SegmentParams.cross_fit_repeats; 1 = one split)")
-    p.add_argument("--stroke-network", type=_non_negative, default=None,
-                   help="weight of the stroke network in the labels the model for unseen shapes is trained on, "
-                        "where its held-out accuracy on the strokes reaches SegmentParams.stroke_network_min_accuracy "
-                        "(default SegmentParams.stroke_network; 0 = off)")
     p.add_argument("--local-shape", action=argparse.BooleanOptionalAction, default=None,
                    help="the local extrinsic shape around each face among the network's inputs "
                         "(default SegmentParams.local_shape; --no-local-shape: the signatures and their context only)")
-    p.add_argument("--cores", action=argparse.BooleanOptionalAction, default=True,
-                   help="unseen shapes: propagate from the cores of the predicted parts (--no-cores: stop at the refinement)")
     p.add_argument("--out", required=True)
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=_cmd_bench)

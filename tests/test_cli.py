@@ -75,8 +75,9 @@ def _run_env(env, *args):
 
 
 def test_bench_refuses_out_of_range_options_before_running(tmp_path):
-    for option, value, message in [("--cross-fit", "1.5", "must lie in [0, 1]"),
-                                   ("--cross-fit-repeats", "0", "must be at least 1"),
+    for option, value, message in [("--convex", "1.5", "must lie in [0, 1]"),
+                                   ("--rounds", "0", "must be at least 1"),
+                                   ("--walk", "-1", "must not be negative"),
                                    ("--folds", "1", "must be at least 2")]:
         r = _run("bench", str(tmp_path), option, value, "--out", str(tmp_path / "out"))
         assert r.returncode == 2 and "Traceback" not in r.stderr
@@ -90,18 +91,15 @@ def test_bench_options_reach_the_engine():
 
     parse = build_parser().parse_args
     default = _bench_params(parse(["bench", "data", "--out", "o"]))
-    assert default.network.seed == SegmentParams().network.seed
-    assert default.cross_fit == SegmentParams().cross_fit and default.cores is not None
+    assert default == SegmentParams()
     params = _bench_params(parse(["bench", "data", "--out", "o", "--network-seed", "3", "--threads", "1",
-                                  "--cross-fit", "0.5", "--no-cores", "--walk", "0", "--convex", "0.1",
-                                  "--stroke-network", "0", "--no-local-shape"]))
-    assert (params.network.seed, params.network.threads, params.cross_fit) == (3, 1, 0.5)
-    assert params.cores is None and params.propagation.walk == 0 and params.propagation.convex == 0.1
-    assert default.propagation.convex == SegmentParams().propagation.convex
-    assert params.stroke_network == 0 and default.stroke_network == SegmentParams().stroke_network > 0
-    assert not params.local_shape and default.local_shape == SegmentParams().local_shape
+                                  "--walk", "0", "--convex", "0.1", "--contrast", "0", "--no-local-shape",
+                                  "--method", "paper", "--rounds", "2"]))
+    assert (params.network.seed, params.network.threads, params.method, params.rounds) == (3, 1, "paper", 2)
+    assert (params.propagation.walk, params.propagation.convex, params.propagation.contrast) == (0, 0.1, 0)
+    assert not params.local_shape
     with pytest.raises(SystemExit):
-        parse(["bench", "data", "--out", "o", "--stroke-network", "-0.05"])
+        parse(["bench", "data", "--out", "o", "--walk", "-0.5"])
 
 
 def _soup(path, count: int, seed: int = 0) -> None:

@@ -34,7 +34,8 @@ class FeaturesDone:
 
 @dataclass(frozen=True, eq=False)
 class StepDone:
-    """One optimization step: labels per file face for the scribbled shapes `indices`."""
+    """One optimization step: labels per file face of the shapes `indices` (those the
+    optimization has labeled so far)."""
 
     snapshot: Snapshot
     indices: tuple[int, ...]
@@ -83,16 +84,14 @@ def collection_run(
         has = scr is not None and bool((scr >= 0).any())
         shapes.append(prepare_shape(mesh, scr if has else None, num_patches=num_patches))
         yield FeaturesDone(i, i + 1, len(meshes))
-    scribbled = tuple(i for i, s in enumerate(shapes) if s.is_scribbled)
     last = None
     for snap in segment_collection(shapes, label_names, params):
         last = snap
-        labels = tuple(meshes[i].labels_to_file(lab) for i, lab in zip(scribbled, snap.labels))
-        yield StepDone(snap, scribbled, labels)
-    for i, s in enumerate(shapes):
-        if not s.is_scribbled and last is not None and last.model is not None:
-            labels, _ = predict_shape(last.model, s)
-            yield Predicted(i, meshes[i].labels_to_file(labels))
+        labeled = tuple(i for i, lab in enumerate(snap.labels) if (lab >= 0).any())
+        yield StepDone(snap, labeled, tuple(meshes[i].labels_to_file(snap.labels[i]) for i in labeled))
+    for i, (s, lab) in enumerate(zip(shapes, last.labels)):
+        if not (lab >= 0).any():  # not part of the optimization (method "paper")
+            yield Predicted(i, meshes[i].labels_to_file(predict_shape(last.model, s)))
 
 
 def predict_run(model: TrainedModel, meshes: Sequence[Mesh], *, num_patches: int = 50) -> Iterator[FeaturesDone | Predicted]:
@@ -108,5 +107,4 @@ def predict_run(model: TrainedModel, meshes: Sequence[Mesh], *, num_patches: int
     for i, mesh in enumerate(meshes):
         shape = prepare_shape(mesh, num_patches=num_patches)
         yield FeaturesDone(i, i + 1, len(meshes))
-        labels, _ = predict_shape(model, shape)
-        yield Predicted(i, mesh.labels_to_file(labels))
+        yield Predicted(i, mesh.labels_to_file(predict_shape(model, shape)))

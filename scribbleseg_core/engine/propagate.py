@@ -97,6 +97,112 @@ def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int) -> np.nda
     return D
 
 
+class FaceEnergy:
+    """The face-level energy of one shape, built once and evaluated or minimized many times.
+
+    ``E(y) = Σ_f U_scr(f, y_f) + network · Σ_f −log P(y_f | f) + Σ_(f,g) w_fg [y_f ≠ y_g]``
+    (:class:`PropagateParams`): scribbled faces are hard constraints; elsewhere `U_scr` is the
+    normalized crease-aware distance to each label's strokes and, beside the network, the
+    random-walker term. A shape without scribbles has a uniform scribble term, so its labels
+    come from the network and the smoothness alone (it needs `log_proba`).
+
+    Parameters
+    ----------
+    graph : DualGraph
+    scribble : (m,) int ndarray
+        Label per face, -1 where unscribbled (all -1: no scribbles).
+    k : int
+        Number of labels; scribble ids are below it.
+    params : PropagateParams
+    sdf : (m,) float ndarray, optional
+        Shape diameter per face, for ``params.contrast`` (ignored when that is 0).
+    """
+
+    def __init__(self, graph: DualGraph, scribble: np.ndarray, k: int, params: PropagateParams = PropagateParams(),
+                 sdf: np.ndarray | None = None):
+        scribble = np.asarray(scribble, dtype=np.int64)
+        if scribble.shape != (graph.num_faces,):
+            raise ValueError(f"scribble has shape {scribble.shape}, expected ({graph.num_faces},)")
+        if scribble.max(initial=-1) >= k:
+            raise ValueError(f"scribble label {scribble.max()} out of range for {k} labels")
+        self.graph, self.scribble, self.k, self.params = graph, scribble, k, params
+        self.pairs = graph.pairs
+        w = graph.crease_potts_weights(params.smoothness, params.crease, params.convex)
+        if params.contrast > 0 and sdf is not None:
+            w = w * contrast_factor(graph, sdf, params.contrast, params.contrast_floor)
+        self.weights = w
+        self.strokes = np.flatnonzero(scribble >= 0)
+        self._walk = None
+        m = graph.num_faces
+        if self.strokes.size == 0:
+            self.reached = np.zeros(m, bool)
+            self._distance = np.zeros((m, k))
+            self._scribbled_labels = np.ones(k, bool)
+            return
+        D = scribble_distances(graph, scribble, k)
+        nearest = D.min(axis=1)
+        self.reached = np.isfinite(nearest)
+        scale = max(float(np.median(nearest[self.reached])), 1e-12)
+        self._scribbled_labels = np.isfinite(D[self.reached].min(axis=0))
+        U = np.zeros((m, k))
+        Dr = D[self.reached] - nearest[self.reached, None]
+        finite = np.isfinite(Dr)
+        U[self.reached] = np.where(finite, params.distance * np.where(finite, Dr, 0.0) / scale, INF)
+        self._distance = U
+
+    @property
+    def is_scribbled(self) -> bool:
+        return self.strokes.size > 0
+
+    def walk(self) -> np.ndarray:
+        """(m, k) ``−log`` of the random-walker probabilities from the strokes (computed once)."""
+        if self._walk is None:
+            P = random_walk_probabilities(self.graph, self.scribble, self.k, self.params.crease, self.params.convex)
+            self._walk = -np.log(np.maximum(P, 1e-6))
+        return self._walk
+
+    def unary(self, log_proba: np.ndarray | None = None) -> np.ndarray:
+        """(m, k) unary costs, with the network's log-probabilities when given."""
+        p, s = self.params, self.strokes
+        U = self._distance.copy()
+        if log_proba is not None and p.network > 0:
+            U += p.network * -np.maximum(np.asarray(log_proba, dtype=np.float64), -30.0)
+            if self.is_scribbled:
+                U[self.reached] = np.where(self._scribbled_labels[None, :], U[self.reached], INF)
+                if p.walk > 0:  # only beside the network: see PropagateParams.walk
+                    U += p.walk * self.walk()
+        elif self.is_scribbled:
+            most = np.bincount(self.scribble[s], minlength=self.k).argmax()
+            U[~self.reached] = np.where(np.arange(self.k) == most, 0.0, 1.0)
+        else:
+            raise ValueError("a shape without scribbles needs the network's log-probabilities")
+        U[s] = INF
+        U[s, self.scribble[s]] = 0.0
+        return U
+
+    def cut(self, log_proba: np.ndarray | None = None, init: np.ndarray | None = None) -> np.ndarray:
+        """Labels minimizing the energy by alpha-expansion, (m,) int64; starts from `init`
+        when given (the energy never rises above it), else from the unary argmin."""
+        U = self.unary(log_proba)
+        start = np.argmin(U, axis=1) if init is None else init
+        return alpha_expansion(U, self.pairs, self.weights, init=start, max_sweeps=self.params.max_sweeps)
+
+    def terms(self, labels: np.ndarray, log_proba: np.ndarray | None = None) -> tuple[float, float, float]:
+        """The energy of `labels` split into (scribble, network, smoothness); network is
+        NaN without `log_proba`."""
+        idx = np.arange(len(labels))
+        U = self.unary(None if not self.is_scribbled and log_proba is None else log_proba)
+        network = float("nan")
+        if log_proba is not None and self.params.network > 0:
+            net = self.params.network * -np.maximum(np.asarray(log_proba, dtype=np.float64)[idx, labels], -30.0)
+            network = float(net.sum())
+            scribble = float(U[idx, labels].sum()) - network
+        else:
+            scribble = float(U[idx, labels].sum()) if self.is_scribbled else 0.0
+        cut = labels[self.pairs[:, 0]] != labels[self.pairs[:, 1]]
+        return scribble, network, float(self.weights[cut].sum())
+
+
 def propagate_scribbles(
     graph: DualGraph,
     scribble: np.ndarray,
@@ -106,7 +212,8 @@ def propagate_scribbles(
     sdf: np.ndarray | None = None,
     params: PropagateParams = PropagateParams(),
 ) -> np.ndarray:
-    """Label every face from the scribbles (and a network's log-probabilities).
+    """Label every face from the scribbles (and a network's log-probabilities): the
+    minimum of :class:`FaceEnergy`.
 
     Parameters
     ----------
@@ -127,36 +234,9 @@ def propagate_scribbles(
         Faces in components without scribbles take the network's label, else the most
         scribbled label.
     """
-    scribble = np.asarray(scribble, dtype=np.int64)
-    if scribble.shape != (graph.num_faces,):
-        raise ValueError(f"scribble has shape {scribble.shape}, expected ({graph.num_faces},)")
-    s = np.flatnonzero(scribble >= 0)
-    if s.size == 0:
+    if not (np.asarray(scribble) >= 0).any():
         raise ValueError("no face is scribbled")
-    if scribble.max() >= k:
-        raise ValueError(f"scribble label {scribble.max()} out of range for {k} labels")
-    D = scribble_distances(graph, scribble, k)
-    nearest = D.min(axis=1)
-    reached = np.isfinite(nearest)
-    scale = max(float(np.median(nearest[reached])), 1e-12)
-    U = np.zeros((graph.num_faces, k))
-    scribbled = np.isfinite(D[reached].min(axis=0)) if reached.any() else np.zeros(k, bool)
-    Dr = D[reached] - nearest[reached, None]
-    finite = np.isfinite(Dr)
-    U[reached] = np.where(finite, params.distance * np.where(finite, Dr, 0.0) / scale, INF)
-    if log_proba is not None and params.network > 0:
-        U += params.network * -np.maximum(np.asarray(log_proba, dtype=np.float64), -30.0)
-        U[reached] = np.where(scribbled[None, :], U[reached], INF)  # near scribbles: their labels
-        if params.walk > 0:  # only beside the network: see PropagateParams.walk
-            U += params.walk * -np.log(np.maximum(random_walk_probabilities(graph, scribble, k, params.crease, params.convex), 1e-6))
-    else:
-        U[~reached] = np.where(np.arange(k) == np.bincount(scribble[s], minlength=k).argmax(), 0.0, 1.0)
-    U[s] = INF
-    U[s, scribble[s]] = 0.0
-    w = graph.crease_potts_weights(params.smoothness, params.crease, params.convex)
-    if params.contrast > 0 and sdf is not None:
-        w = w * contrast_factor(graph, sdf, params.contrast, params.contrast_floor)
-    return alpha_expansion(U, graph.pairs, w, init=np.argmin(U, axis=1), max_sweeps=params.max_sweeps)
+    return FaceEnergy(graph, scribble, k, params, sdf).cut(log_proba)
 
 
 def propagate_shape(shape, k: int, params: PropagateParams = PropagateParams(),

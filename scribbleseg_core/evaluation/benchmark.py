@@ -11,6 +11,10 @@ test
 scribbled
     Only N shapes keep their scribbles (drawn with a fixed, reported seed); train on them,
     predict and score the others.
+collection
+    As ``scribbled``, but every shape of the category takes part in the one run (the
+    others without their scribbles), and the others are scored: the app's *Segment
+    collection*.
 given
     Train on the shapes that have a scribble file and score them (``given_scribbled``);
     predict and score the others (``given_unscribbled``). For collections like the demo
@@ -27,7 +31,7 @@ from __future__ import annotations
 import json
 import resource
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +54,12 @@ from scribbleseg_core.formats.scribbles import Scribbles, Stroke, read_scribbles
 from scribbleseg_core.formats.seg import read_seg, write_seg
 from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.signatures.features import cached_face_features
+
+#: The benchmark's modes (see the module docstring).
+MODES: tuple[str, ...] = ("train", "test", "scribbled", "collection", "given")
+#: What the painted shapes are given: their scribbles, or their full ground truth (the
+#: learner's ceiling, comparable with fully supervised methods).
+LABEL_SOURCES: tuple[str, ...] = ("scribbles", "truth")
 
 
 @dataclass
@@ -116,51 +126,88 @@ def shape_scores(item: Item, labels_file: np.ndarray) -> dict:
     return out
 
 
-def _run(shapes, names, params):
+#: Where a mode's time goes: the snapshot phases, and the steps around the optimization.
+_PHASES = {"init": "propagation", "train": "training", "graphcut": "cuts"}
+TIME_PARTS: tuple[str, ...] = ("shapes", "propagation", "training", "cuts", "prediction")
+
+
+def _run(shapes, names, params, clock: dict):
+    """The last snapshot of the optimization; its steps' seconds added to `clock`."""
     snap = None
     for snap in segment_collection(shapes, names, params):
-        pass
+        if snap.phase in _PHASES:
+            clock[_PHASES[snap.phase]] += snap.seconds
     return snap
 
 
-def run_mode(items, names, mode: str, params: SegmentParams, *, folds=5, scribbled=None, coverage=1.0, seed=0):
-    """Predicted file-face labels per scored shape: {index: (refined, patch)}, and seconds."""
+class _Clock(dict):
+    """Seconds per part of a mode (:data:`TIME_PARTS`)."""
+
+    def __init__(self):
+        super().__init__({part: 0.0 for part in TIME_PARTS})
+
+    def timed(self, part: str, f, *args):
+        t = time.perf_counter()
+        try:
+            return f(*args)
+        finally:
+            self[part] += time.perf_counter() - t
+
+
+def run_mode(items, names, mode: str, params: SegmentParams, *, folds=5, scribbled=None, coverage=1.0, seed=0,
+             labels: str = "scribbles"):
+    """Predicted file-face labels per scored shape, ``{index: labels}`` (``{(group, index):
+    labels}`` in mode ``given``), and the seconds the mode took per part (:data:`TIME_PARTS`). With ``labels="truth"`` the
+    painted shapes are given their full ground-truth labels instead of their scribbles (a
+    fully labeled shape, as a ``.seg`` file beside a mesh)."""
+    if labels not in LABEL_SOURCES:
+        raise ValueError(f"labels must be one of {', '.join(LABEL_SOURCES)}; got {labels!r}")
     scr = [keep_coverage(it.scribbles, coverage) for it in items]
     n = len(items)
-    with_scribbles = lambda i: prepare_shape(items[i].mesh, scr[i].face_labels())  # noqa: E731
-    without = lambda i: prepare_shape(items[i].mesh)  # noqa: E731
+    if labels == "truth":
+        scr = [it.truth if s is not None else None for it, s in zip(items, scr)]
+    else:
+        scr = [None if s is None else s.face_labels() for s in scr]
+    clock = _Clock()
+    with_scribbles = lambda i: clock.timed("shapes", prepare_shape, items[i].mesh, scr[i])  # noqa: E731
+    without = lambda i: clock.timed("shapes", prepare_shape, items[i].mesh)  # noqa: E731
+    predict = lambda model, s: clock.timed("prediction", predict_shape, model, s)  # noqa: E731
     out = {}
-    t = time.perf_counter()
     if mode == "train":
         shapes = [with_scribbles(i) for i in range(n)]
-        snap = _run(shapes, names, params)
-        for i, (s, lab, pl) in enumerate(zip(shapes, snap.labels, snap.patch_labels)):
-            out[i] = (s.mesh.labels_to_file(lab), s.mesh.labels_to_file(pl))
+        snap = _run(shapes, names, params, clock)
+        for i, (s, lab) in enumerate(zip(shapes, snap.labels)):
+            out[i] = s.mesh.labels_to_file(lab)
     elif mode == "test":
         fold_of = np.arange(n) * folds // n
         for f in range(folds):
-            snap = _run([with_scribbles(i) for i in np.flatnonzero(fold_of != f)], names, params)
+            snap = _run([with_scribbles(i) for i in np.flatnonzero(fold_of != f)], names, params, clock)
             for i in np.flatnonzero(fold_of == f):
                 s = without(i)
-                lab, pl = predict_shape(snap.model, s)
-                out[int(i)] = (s.mesh.labels_to_file(lab), s.mesh.labels_to_file(pl))
-    elif mode in ("scribbled", "given"):
-        if mode == "scribbled":
-            chosen = np.sort(np.random.default_rng(seed).choice(n, size=scribbled, replace=False))
-        else:
-            chosen = np.array([i for i in range(n) if scr[i] is not None])
-        shapes = [with_scribbles(i) for i in chosen]
-        snap = _run(shapes, names, params)
+                out[int(i)] = s.mesh.labels_to_file(predict(snap.model, s))
+    elif mode in ("scribbled", "given", "collection"):
         if mode == "given":
-            for i, s, lab, pl in zip(chosen, shapes, snap.labels, snap.patch_labels):
-                out[("given_scribbled", int(i))] = (s.mesh.labels_to_file(lab), s.mesh.labels_to_file(pl))
+            chosen = np.array([i for i in range(n) if scr[i] is not None])
+        else:
+            chosen = np.sort(np.random.default_rng(seed).choice(n, size=scribbled, replace=False))
+        if mode == "collection":  # every shape takes part; the unpainted ones without their scribbles
+            shapes = [with_scribbles(i) if i in chosen else without(i) for i in range(n)]
+            snap = _run(shapes, names, params, clock)
+            for i in sorted(set(range(n)) - set(chosen.tolist())):
+                labels = snap.labels[i] if (snap.labels[i] >= 0).any() else predict(snap.model, shapes[i])
+                out[i] = shapes[i].mesh.labels_to_file(labels)
+            return out, clock
+        shapes = [with_scribbles(i) for i in chosen]
+        snap = _run(shapes, names, params, clock)
+        if mode == "given":
+            for i, s, lab in zip(chosen, shapes, snap.labels):
+                out[("given_scribbled", int(i))] = s.mesh.labels_to_file(lab)
         for i in sorted(set(range(n)) - set(chosen.tolist())):
             s = without(i)
-            lab, pl = predict_shape(snap.model, s)
-            out[("given_unscribbled", i) if mode == "given" else i] = (s.mesh.labels_to_file(lab), s.mesh.labels_to_file(pl))
+            out[("given_unscribbled", i) if mode == "given" else i] = s.mesh.labels_to_file(predict(snap.model, s))
     else:
-        raise ValueError(f"mode must be 'train', 'test', 'scribbled' or 'given'; got {mode!r}")
-    return out, time.perf_counter() - t
+        raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+    return out, clock
 
 
 def _mean(rows, key):
@@ -169,48 +216,41 @@ def _mean(rows, key):
 
 
 def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5, scribbled=(1, 3, 5, 10),
-          coverage=1.0, refine=True, seed=0, params: SegmentParams | None = None, progress=None) -> dict:
+          coverage=1.0, seed=0, labels="scribbles", params: SegmentParams | None = None, progress=None) -> dict:
     """Run the benchmark and write the report into `out`; returns the report."""
-    params = replace(params or SegmentParams(), refine=refine)
+    params = params or SegmentParams()
     cats = cats or list_categories(root)
     report = {"settings": {"modes": list(modes), "folds": folds, "scribbled": list(scribbled), "coverage": coverage,
-                           "refine": refine, "seed": seed, "init": params.init,
+                           "seed": seed, "labels": labels, "method": params.method, "rounds": params.rounds,
                            "context_scales": list(params.context_scales),
                            "local_shape": params.local_shape,
-                           "propagation_contrast": params.propagation.contrast,
-                           "propagation_walk": params.propagation.walk,
-                           "propagation_convex": params.propagation.convex,
-                           "cross_fit": params.cross_fit,
-                           "cross_fit_folds": params.cross_fit_folds,
-                           "cross_fit_repeats": params.cross_fit_repeats,
-                           "stroke_network": params.stroke_network,
-                           "stroke_network_min_accuracy": params.stroke_network_min_accuracy,
-                           "cores": params.cores is not None,
-                           "network_seed": params.network.seed}, "categories": {}}
-    runs = [(m, None) for m in modes if m != "scribbled"] + [("scribbled", k) for k in (scribbled if "scribbled" in modes else [])]
+                           "propagation": asdict(params.propagation),
+                           "network": {k: v for k, v in asdict(params.network).items() if k != "threads"}},
+              "categories": {}}
+    runs = [(m, None) for m in modes if m not in ("scribbled", "collection")]
+    runs += [(m, k) for m in ("scribbled", "collection") if m in modes for k in scribbled]
     for cat in cats:
         items, names, t_feat = load_category(root, cat)
         entry = {"shapes": len(items), "feature_seconds_per_shape": t_feat / len(items)}
         for mode, k in runs:
-            key = mode if k is None else f"scribbled_{k}"
+            key = mode if k is None else f"{mode}_{k}"
             if progress:
                 progress(f"{cat} {key}")
-            preds, sec = run_mode(items, names, mode, params, folds=folds, scribbled=k, coverage=coverage, seed=seed)
+            preds, sec = run_mode(items, names, mode, params, folds=folds, scribbled=k, coverage=coverage, seed=seed,
+                                  labels=labels)
             groups: dict[str, dict] = {}
             for idx, pair in preds.items():
                 group, i = idx if isinstance(idx, tuple) else (key, idx)
                 groups.setdefault(group, {})[i] = pair
             for group, gpreds in groups.items():
-                rows, rows_patch = {}, {}
-                for i, (lab, pl) in gpreds.items():
+                rows = {}
+                for i, lab in gpreds.items():
                     stem = items[i].mesh.name
                     write_seg(out / cat / group / f"{stem}.seg", lab)
-                    write_seg(out / cat / group / f"{stem}.patch.seg", pl)
                     rows[stem] = shape_scores(items[i], lab)
-                    rows_patch[stem] = {"ri_error": rand_index_error(pl, items[i].truth)}
                 summary = {m: _mean(rows.values(), m) for m in next(iter(rows.values()))}
-                summary["ri_error_patch"] = _mean(rows_patch.values(), "ri_error")
-                summary["seconds_per_shape"] = sec / len(items)
+                summary["seconds_per_shape"] = sum(sec.values()) / len(items)
+                summary["seconds"] = dict(sec)
                 summary["scored_shapes"] = len(rows)
                 entry[group] = {"summary": summary, "shapes": rows}
         entry["peak_memory_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -223,7 +263,7 @@ def finish_report(root: Path, out: Path, report: dict) -> dict:
     ``report.json``, ``report.md`` and ``chart.png`` into `out`; returns the report."""
     report["verified"] = verify(root, out, report)
     report["average"] = {key: {m: _mean([c[key]["summary"] for c in report["categories"].values() if key in c], m)
-                               for m in ("ri_error", "ri_error_human", "ri_error_patch", "seconds_per_shape")}
+                               for m in ("ri_error", "ri_error_human", "seconds_per_shape")}
                          for key in {k for c in report["categories"].values() for k in c if isinstance(c[k], dict)}}
     out.mkdir(parents=True, exist_ok=True)
     (out / "report.json").write_text(json.dumps(report, indent=1))
@@ -317,23 +357,33 @@ def markdown(report: dict, root: Path) -> str:
         ref = t1 if key == "train" else t2 if key == "test" else {}
         methods = list(ref)
         extra = "".join(f" {mth} |" for mth in methods)
-        lines += [f"## {key}", "", "| category | ours RI err | ours (patch) | vs human | GCE | LCE | Hamming | CD | s/shape |" + extra,
-                  "|---" * (9 + len(methods)) + "|"]
+        lines += [f"## {key}", "", "| category | ours RI err | vs human | GCE | LCE | Hamming | CD | s/shape |" + extra,
+                  "|---" * (8 + len(methods)) + "|"]
         for cat, c in report["categories"].items():
             if key not in c:
                 continue
             s = c[key]["summary"]
-            lines.append(f"| {cat} | {s['ri_error']:.3f} | {s['ri_error_patch']:.3f} | {s.get('ri_error_human', float('nan')):.3f} | "
+            lines.append(f"| {cat} | {s['ri_error']:.3f} | {s.get('ri_error_human', float('nan')):.3f} | "
                          f"{s['gce']:.3f} | {s['lce']:.3f} | {s['hamming']:.3f} | {s['cut_discrepancy']:.3f} | "
                          f"{s['seconds_per_shape']:.1f} |" + "".join(f" {ref[mth].get(cat, float('nan')):.3f} |" for mth in methods))
         avg = report["average"][key]
         cats = [c for c in report["categories"] if key in report["categories"][c]]
-        lines.append(f"| **average** | **{avg['ri_error']:.3f}** | {avg['ri_error_patch']:.3f} | {avg['ri_error_human']:.3f} | | | | | "
+        lines.append(f"| **average** | **{avg['ri_error']:.3f}** | {avg['ri_error_human']:.3f} | | | | | "
                      f"{avg['seconds_per_shape']:.1f} |" + "".join(f" {np.nanmean([ref[mth].get(c, np.nan) for c in cats]):.3f} |" for mth in methods))
         lines.append("")
     lines += ["## cost", "", "| category | features s/shape (this run: near 0 when cached; `make bench` times them cold) | peak memory MB |", "|---|---|---|"]
     for cat, c in report["categories"].items():
         lines.append(f"| {cat} | {c['feature_seconds_per_shape']:.2f} | {c['peak_memory_mb']:.0f} |")
+    lines += ["", "## time", "", "Seconds per category and mode (this run's machine and load), by part: "
+              "shapes (dual graph, patches, cached signatures), propagation (the initial labels), training, "
+              "cuts, prediction.", "", "| category | mode | " + " | ".join(TIME_PARTS) + " | total |",
+              "|---" * (len(TIME_PARTS) + 3) + "|"]
+    for cat, c in report["categories"].items():
+        for key in keys:
+            sec = c.get(key, {}).get("summary", {}).get("seconds")
+            if sec:
+                lines.append(f"| {cat} | {key} | " + " | ".join(f"{sec.get(p, 0.0):.1f}" for p in TIME_PARTS)
+                             + f" | {sum(sec.values()):.1f} |")
     lines += ["", f"Every Rand Index error above was recomputed from the written .seg files: {report['verified']}.", ""]
     return "\n".join(lines)
 

@@ -6,22 +6,23 @@ A model folder holds three files:
     The schema, version :data:`VERSION`::
 
         format          "scribbleseg-model"
-        version         2
+        version         3
         scribbleseg     the package version that wrote it (informational)
         feature_version the per-face signatures' definition it was trained on
         label_names     k names
         network         {"num_inputs", "hidden", "dropout"}: the classifier's architecture
         inputs          {"context_scales", "local_shape"}: what the classifier reads per face
-        patches         {"bins", "smooth", "delta"}: patch descriptors and the feature term
-        prediction      {"lam", "refine", "refinement", "cores", "propagation"}: the
-                        energies used on new shapes (and in the app's preview)
+        prediction      {"method", "propagation", "lam"}: the energy of the graph cut on new
+                        shapes (and of the app's preview)
+        patches         {"bins", "smooth", "delta"}, method "paper" only (else null): the
+                        patch descriptors and the feature term
 
     Nothing else is read: training-only settings are not stored.
 ``weights.pt``
     The classifier's torch state dict, read with ``weights_only=True``.
 ``arrays.npz``
-    Input standardization (``mean``, ``std``) and the patch encoder's ranges and codebook,
-    read with ``allow_pickle=False``.
+    Input standardization (``mean``, ``std``) and, method "paper" only, the patch encoder's
+    ranges and codebook; read with ``allow_pickle=False``.
 
 Any change to what prediction needs bumps :data:`VERSION`; files of another version are
 refused with both versions named (retrain to get a current file).
@@ -38,12 +39,10 @@ from pathlib import Path
 import numpy as np
 
 from scribbleseg_core import __version__
-from scribbleseg_core.engine.cores import CoreParams
 from scribbleseg_core.engine.network import FaceClassifier, NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams, TrainedModel
 from scribbleseg_core.engine.patch_features import PatchEncoder
 from scribbleseg_core.engine.propagate import PropagateParams
-from scribbleseg_core.engine.refine import RefineParams
 from scribbleseg_core.engine.shape import network_input_width
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.infra.atomic import atomic_write_bytes, atomic_write_text
@@ -51,7 +50,7 @@ from scribbleseg_core.signatures.features import FEATURE_VERSION
 
 FORMAT = "scribbleseg-model"
 #: The schema version this scribbleseg writes and reads.
-VERSION = 2
+VERSION = 3
 
 
 def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
@@ -63,8 +62,9 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
     buf = io.BytesIO()
     torch.save(clf.net.state_dict(), buf)
     arrays = io.BytesIO()
-    np.savez(arrays, lo=enc.lo, hi=enc.hi, hks_mean=enc.hks_mean, hks_std=enc.hks_std,
-             codebook=enc.codebook, mean=clf.mean, std=clf.std)
+    encoder = {} if enc is None else dict(lo=enc.lo, hi=enc.hi, hks_mean=enc.hks_mean, hks_std=enc.hks_std,
+                                          codebook=enc.codebook)
+    np.savez(arrays, mean=clf.mean, std=clf.std, **encoder)
     meta = {
         "format": FORMAT,
         "version": VERSION,
@@ -73,14 +73,8 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
         "label_names": list(model.label_names),
         "network": {"num_inputs": clf.num_inputs, "hidden": list(clf.params.hidden), "dropout": clf.params.dropout},
         "inputs": {"context_scales": list(p.context_scales), "local_shape": p.local_shape},
-        "patches": {"bins": enc.bins, "smooth": enc.smooth, "delta": model.delta},
-        "prediction": {
-            "lam": p.lam,
-            "refine": p.refine,
-            "refinement": dataclasses.asdict(p.refinement),
-            "cores": None if p.cores is None else dataclasses.asdict(p.cores),
-            "propagation": dataclasses.asdict(p.propagation),
-        },
+        "prediction": {"method": p.method, "propagation": dataclasses.asdict(p.propagation), "lam": p.lam},
+        "patches": None if enc is None else {"bins": enc.bins, "smooth": enc.smooth, "delta": model.delta},
     }
     atomic_write_bytes(folder / "weights.pt", buf.getvalue())
     atomic_write_bytes(folder / "arrays.npz", arrays.getvalue())
@@ -117,27 +111,29 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
             f"trained on labels {list(names)}, but this collection uses {list(expected_labels)}", folder
         )
     try:
-        net, inputs, patches, pred = (meta[key] for key in ("network", "inputs", "patches", "prediction"))
+        net, inputs, pred, patches = (meta[key] for key in ("network", "inputs", "prediction", "patches"))
         network = dataclasses.replace(NetworkParams(), hidden=tuple(net["hidden"]), dropout=float(net["dropout"]))
-        cores = pred["cores"]
         params = SegmentParams(
+            method=pred["method"],
             lam=float(pred["lam"]),
             context_scales=tuple(float(t) for t in inputs["context_scales"]),
             local_shape=bool(inputs["local_shape"]),
-            refine=bool(pred["refine"]),
             network=network,
-            refinement=RefineParams(**pred["refinement"]),
             propagation=PropagateParams(**pred["propagation"]),
-            cores=None if cores is None else CoreParams(**{**cores, "propagation": PropagateParams(**cores["propagation"])}),
         )
-        num_inputs, delta = int(net["num_inputs"]), float(patches["delta"])
-        bins, smooth = int(patches["bins"]), float(patches["smooth"])
-    except KeyError as e:
-        raise ModelFileError(f"model.json lacks {e}, which model format {VERSION} requires", folder) from None
-    except (TypeError, ValueError) as e:
+        num_inputs = int(net["num_inputs"])
+        if params.method == "paper":
+            delta, bins, smooth = float(patches["delta"]), int(patches["bins"]), float(patches["smooth"])
+    except (KeyError, TypeError) as e:
+        missing = f"lacks {e}" if isinstance(e, KeyError) else f"does not fit ({e})"
+        raise ModelFileError(f"model.json {missing}; model format {VERSION} requires it"[:300], folder) from None
+    except ValueError as e:
         raise ModelFileError(f"model.json does not fit model format {VERSION} ({e})"[:300], folder) from None
     try:
-        clf, encoder = _read_arrays(folder, num_inputs, len(names), network, bins, smooth)
+        clf, arr = _read_arrays(folder, num_inputs, len(names), network)
+        encoder = None
+        if params.method == "paper":
+            encoder = PatchEncoder(arr["lo"], arr["hi"], arr["hks_mean"], arr["hks_std"], arr["codebook"], bins, smooth)
     except FileNotFoundError as e:
         raise ModelFileError(f"incomplete model: {Path(e.filename).name} is missing", folder) from None
     except Exception as e:  # wrong shapes, a pickle, truncated files: all "not a model of ours"
@@ -145,7 +141,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     expected = network_input_width(len(params.context_scales), params.local_shape)
     if clf.num_inputs != expected or clf.mean.shape != (expected,):
         raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
-    return TrainedModel(clf, encoder, delta, names, params)
+    return TrainedModel(clf, names, params, encoder, delta if encoder is not None else None)
 
 
 def _read_meta(folder: Path) -> dict:
@@ -176,9 +172,8 @@ def _read_meta(folder: Path) -> dict:
     return meta
 
 
-def _read_arrays(folder: Path, num_inputs: int, k: int, network: NetworkParams, bins: int,
-                 smooth: float) -> tuple[FaceClassifier, PatchEncoder]:
-    """The classifier (weights, standardization) and the patch encoder of `folder`."""
+def _read_arrays(folder: Path, num_inputs: int, k: int, network: NetworkParams) -> tuple[FaceClassifier, dict]:
+    """The classifier (weights, standardization) of `folder`, and every array of ``arrays.npz``."""
     import torch
 
     with np.load(folder / "arrays.npz", allow_pickle=False) as z:
@@ -187,5 +182,4 @@ def _read_arrays(folder: Path, num_inputs: int, k: int, network: NetworkParams, 
     clf = FaceClassifier(num_inputs, k, network)
     clf.net.load_state_dict(state)
     clf.mean, clf.std, clf.trained = arr["mean"], arr["std"], True
-    encoder = PatchEncoder(arr["lo"], arr["hi"], arr["hks_mean"], arr["hks_std"], arr["codebook"], bins, smooth)
-    return clf, encoder
+    return clf, arr

@@ -1,6 +1,8 @@
-"""The worker's generator, without Qt: features, streamed steps, predictions."""
+"""The worker's generator, without Qt: features, then streamed steps over the whole collection."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 from scribbleseg_app.runner import FeaturesDone, Predicted, StepDone, collection_run
@@ -10,7 +12,7 @@ from scribbleseg_core.engine.optimize import SegmentParams
 from tests.core.planted import LABELS, creature, stroke_faces
 
 
-def test_collection_run_streams_steps_and_predicts_the_rest(monkeypatch, tmp_path):
+def test_collection_run_streams_steps_of_every_shape(monkeypatch, tmp_path):
     monkeypatch.setenv("SCRIBBLESEG_CACHE_DIR", str(tmp_path))
     meshes, scribbles, gts = [], [], []
     for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1)]):
@@ -27,9 +29,12 @@ def test_collection_run_streams_steps_and_predicts_the_rest(monkeypatch, tmp_pat
     msgs = list(collection_run(meshes, scribbles, LABELS, params))
     assert [m.done for m in msgs if isinstance(m, FeaturesDone)] == [1, 2, 3]
     steps = [m for m in msgs if isinstance(m, StepDone)]
-    assert steps[0].snapshot.phase == "graphcut" and steps[-1].snapshot.done
-    assert steps[-1].indices == (0, 1)
+    assert steps[0].snapshot.phase == "init" and steps[-1].snapshot.done
+    assert steps[0].indices == (0, 1)  # the shape without scribbles joins at the first cut
+    assert steps[-1].indices == (0, 1, 2)
     for i, labels in zip(steps[-1].indices, steps[-1].file_labels):
         assert (labels == gts[i]).mean() > 0.9
-    (pred,) = [m for m in msgs if isinstance(m, Predicted)]
-    assert pred.index == 2 and (pred.file_labels == gts[2]).mean() > 0.85
+    assert not [m for m in msgs if isinstance(m, Predicted)]  # nothing left to predict after the run
+    paper = list(collection_run(meshes, scribbles, LABELS, replace(params, method="paper")))
+    (pred,) = [m for m in paper if isinstance(m, Predicted)]  # the paper's variant predicts it afterwards
+    assert pred.index == 2 and pred.file_labels.shape == gts[2].shape

@@ -40,19 +40,24 @@ def planted_root(tmp_path_factory):
 
 def test_train_test_scribbled_report(tmp_path, planted_root):
     out = tmp_path / "out"
-    report = bench(planted_root, out, modes=("train", "test", "scribbled"), folds=2, scribbled=(2,), params=FAST)
+    report = bench(planted_root, out, modes=("train", "test", "scribbled", "collection"), folds=2, scribbled=(2,),
+                   params=FAST)
     entry = report["categories"]["Planted"]
     assert report["verified"] is True
-    assert report["settings"]["network_seed"] == FAST.network.seed
+    assert report["settings"]["network"]["seed"] == FAST.network.seed
     assert entry["train"]["summary"]["ri_error"] < 0.08
     assert entry["train"]["summary"]["scored_shapes"] == 4
     assert entry["test"]["summary"]["scored_shapes"] == 4  # every shape predicted once
     assert entry["scribbled_2"]["summary"]["scored_shapes"] == 2
+    assert entry["collection_2"]["summary"]["scored_shapes"] == 2  # one run on all 4, the 2 unpainted scored
     # a human segmentation equal to the truth, split into components, scores like the label map
     assert entry["train"]["summary"]["ri_error_human"] >= entry["train"]["summary"]["ri_error"] - 1e-9
     for key in ("gce", "lce", "hamming", "cut_discrepancy", "accuracy_area", "ri_error_area"):
         assert np.isfinite(entry["train"]["summary"][key])
-    assert (out / "report.md").read_text().count("| Planted |") == 4  # three modes and the cost table
+    md = (out / "report.md").read_text()
+    assert md.count("| Planted |") == 9  # a row per mode, the cost table, and a row per mode of the time table
+    seconds = entry["test"]["summary"]["seconds"]
+    assert seconds["training"] > 0 and seconds["prediction"] > 0 and seconds["shapes"] > 0
     assert json.loads((out / "report.json").read_text())["verified"] is True
     assert (out / "Planted" / "test" / "3.seg").is_file()
     pytest.importorskip("matplotlib")

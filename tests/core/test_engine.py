@@ -1,4 +1,5 @@
-"""The engine on a planted collection: accuracy, hard scribbles, monotone energy, early stop, models."""
+"""The engine on a planted collection: accuracy, hard scribbles, monotone energy, early stop, models,
+both variants (face and paper)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from scribbleseg_core.engine.graphcut import INF
 from scribbleseg_core.engine.network import NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams, segment_collection
 from scribbleseg_core.engine.predict import predict_shape
-from scribbleseg_core.engine.propagate import propagate_shape
+from scribbleseg_core.engine.propagate import FaceEnergy, propagate_shape
 from scribbleseg_core.engine.shape import prepare_shape
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.infra.cache import ArrayCache
@@ -41,30 +42,79 @@ def collection(tmp_path_factory):
     return shapes, gts, snaps
 
 
-def test_planted_parts_come_back(collection):
+@pytest.fixture(scope="module")
+def paper(collection):
+    shapes, gts, _ = collection
+    return list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, method="paper")))
+
+
+def test_planted_parts_come_back_on_every_shape(collection):
+    """Three scribbled shapes and one without scribbles, in one run."""
     shapes, gts, snaps = collection
     final = snaps[-1]
     assert final.done and final.model is not None
-    for s, gt, labels, patch_labels in zip(shapes[:3], gts, final.labels, final.patch_labels):
+    for labels, gt in zip(final.labels, gts):
         assert (labels == gt).mean() >= 0.95
-        assert (patch_labels == gt).mean() >= 0.90
 
 
-def test_scribbled_faces_keep_their_label(collection):
+def test_scribbled_faces_keep_their_label(collection, paper):
     shapes, _, snaps = collection
-    for snap in snaps:
-        for s, labels, patch_labels in zip(shapes, snap.labels, snap.patch_labels):
+    for snap in snaps + paper:
+        for s, labels in zip(shapes, snap.labels):
             sel = s.scribble >= 0
             np.testing.assert_array_equal(labels[sel], s.scribble[sel])
-            np.testing.assert_array_equal(patch_labels[sel], s.scribble[sel])
 
 
-def test_energy_never_increases(collection):
-    _, _, snaps = collection
-    totals = [s.energy.total for s in snaps if s.iteration >= 1 and s.phase in ("train", "graphcut")]
-    assert len(totals) >= 2
-    assert all(b <= a * (1 + 1e-9) for a, b in zip(totals, totals[1:]))
-    assert snaps[0].phase == "graphcut" and np.isnan(snaps[0].energy.network)
+def test_each_snapshot_carries_the_energy_of_its_labels(collection):
+    """The snapshot's energy is the face energy of the labels it shows, under its network
+    (without cross-fitting, the model is the whole network term)."""
+    shapes, _, _ = collection
+    params = dataclasses.replace(PARAMS, cross_fit=0.0)
+    snaps = list(segment_collection(shapes, LABELS, params))
+    k = len(LABELS)
+    energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes]
+    for snap in snaps[1:-1]:
+        logp = [snap.model.classifier.log_proba(params.network_input(s)) for s in shapes]
+        terms = [e.terms(lab, lp) for e, lab, lp in zip(energies, snap.labels, logp) if (lab >= 0).any()]
+        np.testing.assert_allclose(sum(sum(t) for t in terms), snap.energy.total, rtol=1e-6)
+    assert snaps[-1].energy == [s for s in snaps if s.phase == "graphcut"][-1].energy
+
+
+def test_cross_fitting_mixes_in_networks_that_never_saw_the_shape(collection):
+    from scribbleseg_core.engine.optimize import _Networks
+
+    shapes, _, snaps = collection
+    inputs = [PARAMS.network_input(s) for s in shapes]
+    labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
+    net = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, len(shapes), 0.7)
+    net.fit(inputs, labels)
+    for f, half in enumerate(net.halves):  # each half trained on the other fold's scribbled shapes only
+        assert half.trained
+    mixed = net.log_proba(inputs)
+    for i, x in enumerate(inputs):
+        own, other = np.exp(net.main.log_proba(x)), np.exp(net.halves[net.fold_of[i]].log_proba(x))
+        np.testing.assert_allclose(np.exp(mixed[i]), 0.3 * own + 0.7 * other, rtol=1e-6)
+    alone = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 1, 0.7)  # one shape: nothing to hold out
+    assert alone.halves == []
+
+
+def test_energy_never_increases_and_the_result_is_the_last_cut(collection, paper):
+    for snaps in (collection[2], paper):
+        totals = [s.energy.total for s in snaps if s.iteration >= 1 and s.phase in ("train", "graphcut")]
+        assert len(totals) >= 2
+        assert all(b <= a * (1 + 1e-9) for a, b in zip(totals, totals[1:]))
+        assert snaps[0].phase == "init" and np.isnan(snaps[0].energy.network)
+        last_cut = [s for s in snaps if s.phase == "graphcut"][-1]
+        for a, b in zip(last_cut.labels, snaps[-1].labels):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_a_shape_without_scribbles_joins_at_the_first_cut(collection):
+    shapes, _, snaps = collection
+    assert not shapes[3].is_scribbled
+    assert (snaps[0].labels[3] == -1).all() and snaps[0].changed[3] is False
+    first_cut = next(s for s in snaps if s.phase == "graphcut")
+    assert (first_cut.labels[3] >= 0).all() and first_cut.changed[3]
 
 
 def test_stopping_early_leaves_valid_labels(collection):
@@ -72,20 +122,53 @@ def test_stopping_early_leaves_valid_labels(collection):
     gen = segment_collection(shapes, LABELS, PARAMS)
     first = next(gen)
     gen.close()
-    for s, labels in zip([s for s in shapes if s.is_scribbled], first.labels):
-        assert labels.shape == (len(s.mesh.F),) and labels.min() >= 0
-        assert set(np.unique(labels)) <= set(s.scribbled_labels)
+    for s, labels in zip(shapes, first.labels):
+        assert labels.shape == (len(s.mesh.F),)
         assert not labels.flags.writeable  # frozen snapshot
+        if s.is_scribbled:
+            assert set(np.unique(labels)) <= set(s.scribbled_labels)
+            np.testing.assert_array_equal(labels, propagate_shape(s, len(LABELS), PARAMS.propagation))
 
 
-def test_unseen_shape_is_predicted(collection):
+def test_unseen_shape_is_predicted_as_the_collection_labeled_it(collection):
     shapes, gts, snaps = collection
     model = snaps[-1].model
-    labels, patch_labels = predict_shape(model, shapes[3])
-    assert (labels == gts[3]).mean() >= 0.90
-    refined, same_patches = predict_shape(dataclasses.replace(model, params=dataclasses.replace(model.params, cores=None)), shapes[3])
-    np.testing.assert_array_equal(same_patches, patch_labels)  # cores act after the refinement only
-    assert (refined == gts[3]).mean() >= 0.90
+    labels = predict_shape(model, shapes[3])
+    assert (labels == gts[3]).mean() >= 0.95
+    # the same cut; in the run its network term also had the held-out half's opinion
+    assert (labels == snaps[-1].labels[3]).mean() >= 0.95
+
+
+def test_paper_variant_is_the_patch_level_alternation(collection, paper):
+    """Eq. 1 alone starts it: on these short strokes its cut keeps to the strokes' patches
+    (graph cuts' shrinking bias), which the face method's distance term avoids."""
+    shapes, gts, snaps = collection
+    final = paper[-1]
+    assert final.model.params.method == "paper" and final.model.encoder is not None
+    for s, labels in zip(shapes[:3], final.labels):
+        assert set(np.unique(labels)) <= set(s.scribbled_labels)
+        assert len(np.unique(labels[s.patch == s.patch[0]])) == 1  # patch-level: one label per patch
+    assert (final.labels[3] == -1).all()  # the paper trains on scribbled shapes only
+    predicted = predict_shape(final.model, shapes[3])
+    assert predicted.shape == gts[3].shape and set(np.unique(predicted)) <= {0, 1, 2}
+    face = np.mean([(lab == gt).mean() for lab, gt in zip(snaps[-1].labels, gts)])
+    patch = np.mean([(lab == gt).mean() for lab, gt in zip(final.labels[:3], gts)])
+    assert face > patch
+
+
+def test_parameters_are_checked_when_made():
+    for bad, message in [(dict(method="magic"), "method must be one of 'face', 'paper'"),
+                         (dict(rounds=0), "rounds must be at least 1"),
+                         (dict(tolerance=1.0), "tolerance must lie in"),
+                         (dict(context_scales=(0.01, -1.0)), "context_scales must be positive")]:
+        with pytest.raises(ValueError, match=message):
+            SegmentParams(**bad)
+
+
+def test_no_scribbles_at_all_is_refused(collection):
+    shapes, _, _ = collection
+    with pytest.raises(ValueError, match="no shape has scribbles"):
+        next(segment_collection([shapes[3]], LABELS, PARAMS))
 
 
 def test_model_round_trip_and_refusals(tmp_path, collection):
@@ -93,7 +176,7 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     model = snaps[-1].model
     save_model(tmp_path / "m", model)
     back = load_model(tmp_path / "m", expected_labels=LABELS)
-    np.testing.assert_array_equal(predict_shape(back, shapes[3])[0], predict_shape(model, shapes[3])[0])
+    np.testing.assert_array_equal(predict_shape(back, shapes[3]), predict_shape(model, shapes[3]))
     x = model.params.network_input(shapes[3])
     np.testing.assert_allclose(back.classifier.log_proba(x), model.classifier.log_proba(x), atol=1e-6)  # no dropout noise
     with pytest.raises(ModelFileError, match="trained on labels"):
@@ -104,18 +187,16 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
 
     meta_path = tmp_path / "m" / "model.json"
     meta = json.loads(meta_path.read_text())
-    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 2"),
-                             (1, "model format version 1, written by scribbleseg .*, older than the version 2")]:
+    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 3"),
+                             (2, "model format version 2, written by scribbleseg .*, older than the version 3")]:
         meta_path.write_text(json.dumps({**meta, "version": version}))
         with pytest.raises(ModelFileError, match=message) as refused:
             load_model(tmp_path / "m")
         assert str(tmp_path / "m") in str(refused.value)
-    # what prediction uses travels with the model, switched-off parts included
-    assert back.params.cores == model.params.cores and back.params.propagation == model.params.propagation
-    assert (back.params.refinement, back.params.lam, back.params.context_scales, back.params.local_shape) == (
-        model.params.refinement, model.params.lam, model.params.context_scales, model.params.local_shape)
-    save_model(tmp_path / "off", dataclasses.replace(model, params=dataclasses.replace(model.params, cores=None)))
-    assert load_model(tmp_path / "off").params.cores is None
+    # what prediction uses travels with the model
+    assert (back.params.method, back.params.propagation, back.params.context_scales, back.params.local_shape) == (
+        model.params.method, model.params.propagation, model.params.context_scales, model.params.local_shape)
+    assert back.encoder is None and model.encoder is None  # the face method needs no patch descriptors
     # a file that lacks a part of the schema says which
     meta_path.write_text(json.dumps({k: v for k, v in meta.items() if k != "inputs"}))
     with pytest.raises(ModelFileError, match="model.json lacks 'inputs'"):
@@ -137,6 +218,16 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
         load_model(tmp_path / "m")
     with pytest.raises(ModelFileError, match="no model.json"):
         load_model(tmp_path)
+
+
+def test_paper_model_round_trip(tmp_path, collection, paper):
+    shapes = collection[0]
+    model = paper[-1].model
+    save_model(tmp_path / "p", model)
+    back = load_model(tmp_path / "p")
+    assert back.params.method == "paper" and back.delta == model.delta
+    np.testing.assert_array_equal(back.encoder.codebook, model.encoder.codebook)
+    np.testing.assert_array_equal(predict_shape(back, shapes[3]), predict_shape(model, shapes[3]))
 
 
 def test_scribble_unary_follows_eq1():
@@ -163,161 +254,3 @@ def test_patches_never_mix_scribble_labels_and_are_connected(collection):
         G.eliminate_zeros()
         n, _ = connected_components(G, directed=False)
         assert n == s.num_patches
-
-
-def test_retrain_near_keeps_the_faces_nearest_the_strokes(collection):
-    from scribbleseg_core.engine.optimize import _near_strokes
-
-    shapes, gts, _ = collection
-    kept = _near_strokes(shapes[:3], gts[:3], len(LABELS), 0.5)
-    for s, gt, y in zip(shapes, gts, kept):
-        assert 0.45 <= (y >= 0).mean() <= 0.6  # about the nearer half
-        sel = s.scribble >= 0
-        np.testing.assert_array_equal(y[sel], gt[sel])  # strokes are nearest of all
-        np.testing.assert_array_equal(y[y >= 0], gt[y >= 0])  # kept faces keep their label
-
-
-def test_cross_fit_folds_hold_each_shape_out_once():
-    from scribbleseg_core.engine.optimize import cross_fit_folds
-
-    for n, folds in [(20, 4), (3, 4), (2, 2), (7, 3)]:
-        held = cross_fit_folds(n, folds)
-        assert len(held) == min(n, folds)
-        np.testing.assert_array_equal(np.sort(np.concatenate(held)), np.arange(n))
-    with pytest.raises(ValueError, match="at least 2 shapes"):
-        cross_fit_folds(1, 4)
-
-
-def test_cross_fit_repeats_split_the_shapes_anew():
-    from scribbleseg_core.engine.optimize import cross_fit_folds
-
-    def partition(held):
-        return sorted(tuple(h) for h in held)
-
-    for n in (3, 5, 20):
-        first, second = cross_fit_folds(n, 2, 0), cross_fit_folds(n, 2, 1)
-        assert len(second) == 2
-        np.testing.assert_array_equal(np.sort(np.concatenate(second)), np.arange(n))
-        assert partition(first) != partition(second)
-    np.testing.assert_array_equal(cross_fit_folds(6, 2, 1)[0], [0, 1, 4, 5])  # neighbours paired
-    assert cross_fit_folds(2, 2, 1) == []  # two shapes split only one way
-    assert cross_fit_folds(4, 4, 1) == []  # leave-one-out has no other split
-    assert cross_fit_folds(4, 2, 2) == []  # (i // 4) mod 2: all in one fold
-
-
-def test_cross_fit_mixes_held_out_networks_and_leaves_the_model_alone(collection):
-    shapes, gts, snaps = collection
-    phases = [s.phase for s in snaps]
-    assert (PARAMS.cross_fit_folds, PARAMS.cross_fit_repeats) == (2, 2)  # the defaults
-    assert phases.count("crossfit") == 4  # three scribbled shapes, two folds, two splits
-    assert phases.index("retrain") < phases.index("crossfit") < len(phases) - 2
-    assert phases[-2:] == ["retrain", "done"]
-    one = [s.phase for s in segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit_repeats=1))]
-    assert one.count("crossfit") == 2
-    off = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit=0.0)))
-    assert "crossfit" not in [s.phase for s in off]
-    x = PARAMS.network_input(shapes[3])
-    # the model (used on unseen shapes) is the same network either way
-    np.testing.assert_allclose(off[-1].model.classifier.log_proba(x), snaps[-1].model.classifier.log_proba(x), atol=1e-6)
-    for s, gt, labels in zip(shapes, gts, snaps[-1].labels):
-        assert (labels == gt).mean() >= 0.95
-
-
-def test_held_out_network_replaces_the_own_one_at_share_1(collection):
-    from scribbleseg_core.engine.network import FaceClassifier
-    from scribbleseg_core.engine.optimize import _held_out_log_proba, _mix
-
-    shapes, gts, _ = collection
-    inputs = [PARAMS.network_input(s) for s in shapes[:3]]
-    own = np.log(np.full((len(inputs[0]), len(LABELS)), 1.0 / len(LABELS)))
-    held = _held_out_log_proba(inputs, gts[:3], np.array([0]), len(LABELS), PARAMS)
-    assert list(held) == [0]  # only the held-out shape gets an opinion
-    other = FaceClassifier(inputs[0].shape[1], len(LABELS), PARAMS.network)
-    other.fit(inputs[1:], gts[1:3])
-    np.testing.assert_allclose(held[0], other.log_proba(inputs[0]), atol=1e-6)
-    np.testing.assert_allclose(_mix(own, [held[0]], 1.0), held[0], atol=1e-9)
-    assert (held[0].argmax(1) == gts[0]).mean() >= 0.9  # learned from the other two shapes
-    assert _mix(own, [], 0.7) is own  # no held-out opinion: the own network alone
-
-
-def test_mix_averages_held_out_probabilities():
-    from scribbleseg_core.engine.optimize import _mix
-
-    own = np.log(np.array([[0.9, 0.1]]))
-    p1, p2 = np.log(np.array([[0.2, 0.8]])), np.log(np.array([[0.6, 0.4]]))
-    mixed = np.exp(_mix(own, [p1, p2], 0.7))
-    np.testing.assert_allclose(mixed, 0.3 * np.array([[0.9, 0.1]]) + 0.7 * np.array([[0.4, 0.6]]))
-
-
-def test_cross_fit_share_is_checked(collection):
-    shapes, _, _ = collection
-    with pytest.raises(ValueError, match="cross_fit"):
-        next(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, cross_fit=1.5)))
-    with pytest.raises(ValueError, match="stroke_network"):
-        next(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, stroke_network=-0.1)))
-
-
-def test_stroke_network_guides_the_training_labels(collection):
-    """The labels the model for unseen shapes learns: the propagation plus the
-    −log-probabilities of a network trained on the stroke faces only. Strokes keep their
-    labels; weight 0, a single shape or a stroke
-    network whose held-out accuracy on the strokes falls short leave the propagation alone; a
-    large weight makes the labels follow that network where no stroke holds them."""
-    from scribbleseg_core.engine.network import FaceClassifier
-    from scribbleseg_core.engine.optimize import (
-        _stroke_guided_labels,
-        stroke_network_accuracy,
-    )
-
-    shapes, gts, _ = collection
-    trio, k = shapes[:3], len(LABELS)
-    inputs = [PARAMS.network_input(s) for s in trio]
-    accuracy = stroke_network_accuracy(trio, inputs, k, PARAMS)
-    assert 0.5 <= accuracy <= 1.0  # six stroke faces per part on three shapes: some carry over
-    just = dataclasses.replace(PARAMS, stroke_network=0.05, stroke_network_min_accuracy=accuracy)
-    above = dataclasses.replace(just, stroke_network_min_accuracy=accuracy + 1e-6)
-    assert _stroke_guided_labels(trio, inputs, k, above) is None  # falls short: the propagation alone
-    assert _stroke_guided_labels(trio, inputs, k, dataclasses.replace(just, stroke_network=0.0)) is None  # off
-    assert np.isnan(stroke_network_accuracy(trio[:1], inputs[:1], k, PARAMS))
-    assert _stroke_guided_labels(trio[:1], inputs[:1], k, just) is None  # one shape: nothing to check it on
-    guided = _stroke_guided_labels(trio, inputs, k, just)
-    for s, y, gt in zip(trio, guided, gts):
-        sel = s.scribble >= 0
-        np.testing.assert_array_equal(y[sel], s.scribble[sel])
-        assert (y == gt).mean() >= 0.95
-    plain = [propagate_shape(s, k, PARAMS.propagation) for s in trio]
-    net = FaceClassifier(inputs[0].shape[1], k, PARAMS.network)
-    net.fit(inputs, [s.scribble for s in trio])  # the stroke network: stroke faces only
-    vote = [net.log_proba(x).argmax(1) for x in inputs]
-    strong = _stroke_guided_labels(trio, inputs, k, dataclasses.replace(just, stroke_network=50.0))
-
-    def agreement(labels):
-        return np.mean([(y == v).mean() for y, v in zip(labels, vote)])
-
-    assert agreement(strong) > agreement(plain) and agreement(strong) >= 0.97
-
-
-def test_stroke_network_trains_only_the_model_for_unseen_shapes(collection):
-    """With the stroke network on (gate open), the scribbled shapes' labels are those of the
-    engine without it, and the model handed on for unseen shapes is a network trained on the
-    guided labels."""
-    from scribbleseg_core.engine.network import FaceClassifier
-    from scribbleseg_core.engine.optimize import (
-        _stroke_guided_labels,
-        stroke_network_accuracy,
-    )
-
-    shapes, _, snaps = collection
-    on = dataclasses.replace(PARAMS, stroke_network=0.05, stroke_network_min_accuracy=0.0)
-    final = list(segment_collection(shapes, LABELS, on))[-1]
-    for a, b in zip(final.labels, snaps[-1].labels):
-        np.testing.assert_array_equal(a, b)
-    trio, k = shapes[:3], len(LABELS)
-    inputs = [PARAMS.network_input(s) for s in trio]
-    assert stroke_network_accuracy(trio, inputs, k, PARAMS) < PARAMS.stroke_network_min_accuracy  # the fixture's gate was shut
-    guided = _stroke_guided_labels(trio, inputs, k, on)
-    reference = FaceClassifier(inputs[0].shape[1], k, PARAMS.network)
-    reference.fit(inputs, guided)
-    x = PARAMS.network_input(shapes[3])
-    np.testing.assert_allclose(final.model.classifier.log_proba(x), reference.log_proba(x), atol=1e-5)
-    assert not np.allclose(snaps[-1].model.classifier.log_proba(x), reference.log_proba(x), atol=1e-3)

@@ -62,5 +62,17 @@ def test_architecture_is_d_h1_h2_k():
     net = build_mlp(7, 4, (16, 8), dropout=0.3)
     linear = [m for m in net if isinstance(m, nn.Linear)]
     assert [(m.in_features, m.out_features) for m in linear] == [(7, 16), (16, 8), (8, 4)]
-    assert sum(isinstance(m, nn.Dropout) for m in net) == 2
-    assert not any(isinstance(m, nn.Dropout) for m in build_mlp(7, 4, (16, 8)))
+    assert len(net) == 7 and len(build_mlp(7, 4, (16, 8))) == 5  # a dropout after each hidden layer
+
+
+def test_dropout_zeroes_the_given_share_in_training_only_and_keeps_the_mean():
+    import torch
+
+    drop = build_mlp(7, 4, (16, 8), dropout=0.3, seed=0)[2]
+    x = torch.ones(1000, 400)
+    y = drop(x)
+    zeroed = float((y == 0).float().mean())
+    assert abs(zeroed - 77 / 256) < 0.005  # 0.3 rounded to a multiple of 1/256
+    assert abs(float(y.mean()) - 1.0) < 0.01  # survivors are scaled up
+    drop.eval()
+    assert torch.equal(drop(x), x)

@@ -172,3 +172,44 @@ def test_convex_ridges_are_cheap_to_cut_only_with_a_large_convex_weight():
     # 90° ridge: exp(-0.02 / 0.03) ≈ 0.51 of a flat edge now, exp(-0.1 / 0.03) ≈ 0.036 before
     np.testing.assert_allclose(now[ridge] / flat, np.exp(-0.02 / 0.03), rtol=1e-6)
     np.testing.assert_allclose(graph.crease_potts_weights(16.0, 0.03, 0.1)[ridge] / flat, np.exp(-0.1 / 0.03), rtol=1e-6)
+
+
+def _noisy_log_proba(gt, k, seed):
+    """Log-probabilities that favour the truth (0.6) with a random 15% of faces wrong."""
+    rng = np.random.default_rng(seed)  # fixed per call site
+    believed = np.where(rng.random(len(gt)) < 0.15, (gt + 1) % k, gt)
+    P = np.full((len(gt), k), 0.4 / (k - 1))
+    P[np.arange(len(gt)), believed] = 0.6
+    return np.log(P)
+
+
+def test_face_energy_terms_add_up_to_the_potts_energy_the_cut_minimizes(planted):
+    from scribbleseg_core.engine.graphcut import potts_energy
+    from scribbleseg_core.engine.propagate import FaceEnergy
+
+    graph, gt, scribble = planted
+    k = len(LABELS)
+    logp = _noisy_log_proba(gt, k, seed=0)
+    energy = FaceEnergy(graph, scribble, k)
+    labels = energy.cut(logp)
+    total = potts_energy(labels, energy.unary(logp), energy.pairs, energy.weights)
+    np.testing.assert_allclose(sum(energy.terms(labels, logp)), total, rtol=1e-9)
+    assert sum(energy.terms(labels, logp)) <= sum(energy.terms(gt, logp)) + 1e-6  # a minimum, at least below the truth
+    again = energy.cut(logp, init=labels)  # starting from a minimum never makes it worse
+    assert sum(energy.terms(again, logp)) <= sum(energy.terms(labels, logp)) + 1e-6
+
+
+def test_a_shape_without_scribbles_is_labeled_by_the_network_and_smoothness(planted):
+    from scribbleseg_core.engine.propagate import FaceEnergy
+
+    graph, gt, _ = planted
+    k = len(LABELS)
+    logp = _noisy_log_proba(gt, k, seed=1)
+    energy = FaceEnergy(graph, np.full(len(gt), -1), k, PropagateParams(smoothness=2.0))
+    assert not energy.is_scribbled
+    labels = energy.cut(logp)
+    assert (labels == gt).mean() > (logp.argmax(1) == gt).mean() + 0.1  # smoothing removes the noise
+    scribble_term, network_term, _ = energy.terms(labels, logp)
+    assert scribble_term == 0.0 and network_term > 0
+    with pytest.raises(ValueError, match="needs the network"):
+        energy.cut()
