@@ -108,8 +108,8 @@ def _cmd_segment(args) -> int:
             last = msg
             if not args.quiet:
                 snap, e = msg.snapshot, msg.snapshot.energy
-                print(f"  iteration {snap.iteration} {snap.phase:<8} E = {e.total:.1f} "
-                      f"(scribble {e.scribble:.1f}, network {e.network:.1f}, feature {e.feature:.2f}) "
+                print(f"  round {snap.iteration} {snap.phase:<8} E = {e.total:.1f} "
+                      f"(scribbles {e.scribble:.1f}, network {e.network:.1f}, smoothness {e.smoothness:.1f}) "
                       f"{snap.seconds:.1f} s", file=sys.stderr)
         elif isinstance(msg, Predicted):
             _write_file_labels(out, meshes[msg.index], msg.file_labels, coll.label_names)
@@ -118,7 +118,8 @@ def _cmd_segment(args) -> int:
         _write_file_labels(out, meshes[i], labels, coll.label_names)
     save_model(out / "model", last.snapshot.model)
     if not args.quiet:
-        print(f"segmented {len(last.indices)} scribbled and predicted {predicted} shapes "
+        painted = sum(s is not None for s in scribbles)
+        print(f"segmented {len(last.indices) + predicted} shapes ({painted} with scribbles) "
               f"in {time.perf_counter() - t0:.1f} s; wrote {out}", file=sys.stderr)
     return 0
 

@@ -11,18 +11,29 @@ from scribbleseg_core.engine.graphcut import INF
 
 @dataclass(frozen=True)
 class EnergyTerms:
-    """``E = E_scr + E_neu + λ·E_fea`` (``network`` is NaN before a network exists)."""
+    """The terms of the energy (``network`` is NaN before a network exists).
+
+    Attributes
+    ----------
+    scribble : float
+        E_scr: the scribbles (with the face method, their distance and random-walk terms).
+    network : float
+        E_neu: the network's −log-probabilities (weighted).
+    smoothness : float
+        The pairwise term: the face method's crease-aware Potts term, or the paper's λ·E_fea.
+    """
 
     scribble: float
     network: float
-    feature: float
+    smoothness: float
 
     @property
     def total(self) -> float:
-        return self.scribble + (0.0 if np.isnan(self.network) else self.network) + self.feature
+        return self.scribble + (0.0 if np.isnan(self.network) else self.network) + self.smoothness
 
     def __add__(self, other: EnergyTerms) -> EnergyTerms:
-        return EnergyTerms(self.scribble + other.scribble, self.network + other.network, self.feature + other.feature)
+        return EnergyTerms(self.scribble + other.scribble, self.network + other.network,
+                           self.smoothness + other.smoothness)
 
 
 def scribble_unary(patch: np.ndarray, scribble: np.ndarray, allowed: np.ndarray, num_labels: int) -> np.ndarray:

@@ -53,6 +53,31 @@ class NetworkParams:
     threads: int | None = None
 
 
+def sample_faces(X: list[np.ndarray], y: list[np.ndarray], per_shape: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """The labeled faces of several shapes, at most `per_shape` of each drawn at random.
+
+    Parameters
+    ----------
+    X : list of (m_s, d) ndarray
+    y : list of (m_s,) int ndarray
+        -1 for faces not to train on.
+
+    Returns
+    -------
+    X : (N, d) ndarray
+    y : (N,) int64 ndarray
+    """
+    rng = np.random.default_rng(seed)
+    Xs, ys = [], []
+    for Xi, yi in zip(X, y):
+        keep = np.flatnonzero(np.asarray(yi) >= 0)
+        if len(keep) > per_shape:
+            keep = rng.choice(keep, per_shape, replace=False)
+        Xs.append(Xi[keep])
+        ys.append(np.asarray(yi)[keep])
+    return np.concatenate(Xs), np.concatenate(ys).astype(np.int64)
+
+
 def torch_threads() -> int:
     """The number of cores this process may run on (its CPU affinity)."""
     try:
@@ -150,15 +175,7 @@ class FaceClassifier:
 
         p = self.params
         torch.set_num_threads(p.threads or torch_threads())
-        rng = np.random.default_rng(p.seed)
-        Xs, ys = [], []
-        for Xi, yi in zip(X, y):
-            keep = np.flatnonzero(yi >= 0)
-            if len(keep) > p.max_faces_per_shape:
-                keep = rng.choice(keep, p.max_faces_per_shape, replace=False)
-            Xs.append(Xi[keep])
-            ys.append(yi[keep])
-        Xa, ya = np.concatenate(Xs), np.concatenate(ys).astype(np.int64)
+        Xa, ya = sample_faces(X, y, p.max_faces_per_shape, p.seed)
         if not warm or not self.trained:
             self.mean, self.std = Xa.mean(0), Xa.std(0) + 1e-8
             torch.manual_seed(p.seed)
