@@ -141,3 +141,23 @@ def test_given_mode_scores_painted_and_unpainted_shapes_apart(tmp_path, planted_
     assert entry["given_scribbled"]["summary"]["ri_error"] < 0.08
     assert np.isnan(report["average"]["given_unscribbled"]["ri_error_human"])
     assert np.isfinite(report["average"]["given_unscribbled"]["ri_error"])
+
+
+def test_truth_labels_train_on_every_face_of_the_painted_shapes(tmp_path, planted_root, monkeypatch):
+    """``labels="truth"``: the painted shapes are fully labeled shapes (the learner's ceiling)."""
+    import scribbleseg_core.evaluation.benchmark as benchmark
+
+    given = []
+    real = benchmark.prepare_shape
+
+    def spy(mesh, file_scribble=None, **kwargs):
+        given.append(None if file_scribble is None else np.asarray(file_scribble).copy())
+        return real(mesh, file_scribble, **kwargs)
+
+    monkeypatch.setattr(benchmark, "prepare_shape", spy)
+    report = bench(planted_root, tmp_path / "out", modes=("train",), labels="truth", params=FAST)
+    assert report["settings"]["labels"] == "truth"
+    assert len(given) == 4 and all(g is not None and (g >= 0).all() for g in given)  # every face labeled
+    assert report["categories"]["Planted"]["train"]["summary"]["ri_error"] == 0.0  # hard labels come back as given
+    with pytest.raises(ValueError, match="labels must be one of"):
+        bench(planted_root, tmp_path / "other", modes=("train",), labels="guess", params=FAST)
