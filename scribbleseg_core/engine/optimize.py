@@ -76,10 +76,10 @@ class SegmentParams:
         (:func:`~scribbleseg_core.signatures.context.local_shape`; 5 values a scale).
         Default True.
     cross_fit : float
-        ``"face"`` only: the share of held-out networks in the network term, ``log((1 − a)
-        P_all + a P_half)``: each shape's probabilities also come from a network trained on
-        the other half of the shapes, one that never saw its labels, so the term is not only
-        the echo of them. The model for new shapes is the network trained on all shapes.
+        ``"face"`` only: the share of held-out networks in a scribbled shape's network term,
+        ``log((1 − a) P_all + a P_half)``: its probabilities also come from a network trained
+        on the other half of the shapes, one that never saw its labels, so the term is not
+        only the echo of them. The model for new shapes is the network trained on all shapes.
         0 turns it off (then each round trains one network instead of three, each of the two
         extra on half the shapes). Default 0.7.
     network : NetworkParams
@@ -224,7 +224,8 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
     inputs = [params.network_input(s) if problem.trains_on(i) else None for i, s in enumerate(problem.shapes)]
     d = next(x.shape[1] for x in inputs if x is not None)
     share = params.cross_fit if params.method == "face" else 0.0
-    net = _Networks(d, len(problem.label_names), params.network, n, share)
+    net = _Networks(d, len(problem.label_names), params.network, share,
+                    [s.is_scribbled for s in problem.shapes])
     model, logp, best, it = None, None, np.inf, 0
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
@@ -255,12 +256,15 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
 class _Networks:
     """The network term of the energy: the network trained on every labeled shape (the
     model) and, with cross-fitting (``share > 0``), two networks each trained on one half of
-    the shapes; a shape's probabilities are ``(1 − share) P_all + share P_other half``, so
-    its term is not only the echo of its own labels."""
+    the shapes; a scribbled shape's probabilities are ``(1 − share) P_all + share P_other
+    half``, so its term is not only the echo of its propagated labels. Shapes without
+    scribbles use the model alone, as a new shape would."""
 
-    def __init__(self, d: int, k: int, params: NetworkParams, n: int, share: float):
+    def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool]):
+        n = len(mixed)
         self.main = FaceClassifier(d, k, params)
         self.share = share if n >= 2 else 0.0
+        self.mixed = list(mixed)
         self.fold_of = np.arange(n) % 2
         self.halves = [FaceClassifier(d, k, params) for _ in range(2)] if self.share > 0 else []
 
@@ -284,7 +288,7 @@ class _Networks:
                 out.append(None)
                 continue
             own = self.main.log_proba(x)
-            half = self.halves[self.fold_of[i]] if self.halves else None
+            half = self.halves[self.fold_of[i]] if self.halves and self.mixed[i] else None
             if half is None or not half.trained:
                 out.append(own)
                 continue

@@ -40,6 +40,9 @@ class PropagateParams:
         Weight of the distance term. Default 0.1.
     smoothness : float
         Potts weight of an edge of mean length with no crease. Default 16.
+    smoothness_unscribbled : float
+        The same for a shape without scribbles, whose only data term is the network: its
+        labels need more smoothing to hold parts together. Default 64.
     crease : float
         Concavity at which an edge's weight falls to 1/e. Default 0.03.
     network : float
@@ -65,6 +68,7 @@ class PropagateParams:
 
     distance: float = 0.1
     smoothness: float = 16.0
+    smoothness_unscribbled: float = 64.0
     crease: float = 0.03
     network: float = 0.5
     contrast: float = 1.0
@@ -104,7 +108,8 @@ class FaceEnergy:
     (:class:`PropagateParams`): scribbled faces are hard constraints; elsewhere `U_scr` is the
     normalized crease-aware distance to each label's strokes and, beside the network, the
     random-walker term. A shape without scribbles has a uniform scribble term, so its labels
-    come from the network and the smoothness alone (it needs `log_proba`).
+    come from the network and the smoothness alone (it needs `log_proba`; its smoothness is
+    ``params.smoothness_unscribbled``).
 
     Parameters
     ----------
@@ -127,11 +132,12 @@ class FaceEnergy:
             raise ValueError(f"scribble label {scribble.max()} out of range for {k} labels")
         self.graph, self.scribble, self.k, self.params = graph, scribble, k, params
         self.pairs = graph.pairs
-        w = graph.crease_potts_weights(params.smoothness, params.crease, params.convex)
+        self.strokes = np.flatnonzero(scribble >= 0)
+        smoothness = params.smoothness if self.strokes.size else params.smoothness_unscribbled
+        w = graph.crease_potts_weights(smoothness, params.crease, params.convex)
         if params.contrast > 0 and sdf is not None:
             w = w * contrast_factor(graph, sdf, params.contrast, params.contrast_floor)
         self.weights = w
-        self.strokes = np.flatnonzero(scribble >= 0)
         self._walk = None
         m = graph.num_faces
         if self.strokes.size == 0:

@@ -33,7 +33,7 @@ def test_collection_run_streams_steps_of_every_shape(monkeypatch, tmp_path):
     assert steps[0].indices == (0, 1)  # the shape without scribbles joins at the first cut
     assert steps[-1].indices == (0, 1, 2)
     for i, labels in zip(steps[-1].indices, steps[-1].file_labels):
-        assert (labels == gts[i]).mean() > 0.9
+        assert (labels == gts[i]).mean() > (0.9 if scribbles[i] is not None else 0.85)
     assert not [m for m in msgs if isinstance(m, Predicted)]  # nothing left to predict after the run
     paper = list(collection_run(meshes, scribbles, LABELS, replace(params, method="paper")))
     (pred,) = [m for m in paper if isinstance(m, Predicted)]  # the paper's variant predicts it afterwards
