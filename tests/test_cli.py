@@ -86,6 +86,7 @@ def test_bench_refuses_out_of_range_options_before_running(tmp_path):
 
 
 def test_bench_options_reach_the_engine():
+
     from scribbleseg_core.cli import _bench_params, build_parser
     from scribbleseg_core.engine.optimize import SegmentParams
 

@@ -168,8 +168,7 @@ def test_convex_ridges_are_cheap_to_cut_only_with_a_large_convex_weight():
     same_length = np.isclose(graph.length, graph.length[ridge][0])
     now = graph.crease_potts_weights(16.0, 0.03, 0.02)
     flat = now[(graph.bend < 1e-9) & same_length].max()
-    assert PropagateParams().convex == 0.02
-    # 90° ridge: exp(-0.02 / 0.03) ≈ 0.51 of a flat edge now, exp(-0.1 / 0.03) ≈ 0.036 before
+    # a 90° ridge (bend 1): exp(-0.02 / 0.03) ≈ 0.51 of a flat edge at weight 0.02, exp(-0.1 / 0.03) ≈ 0.036 at 0.1
     np.testing.assert_allclose(now[ridge] / flat, np.exp(-0.02 / 0.03), rtol=1e-6)
     np.testing.assert_allclose(graph.crease_potts_weights(16.0, 0.03, 0.1)[ridge] / flat, np.exp(-0.1 / 0.03), rtol=1e-6)
 
