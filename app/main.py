@@ -11,8 +11,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("path", nargs="?", help="a folder of meshes, one mesh, or a saved session folder (default: the bundled demo creatures)")
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
 
-    from PySide6.QtWidgets import QApplication
-    from scribbleseg_app.main_window import MainWindow
+    try:
+        from PySide6.QtWidgets import QApplication
+        from scribbleseg_app.main_window import MainWindow
+    except ImportError as e:  # installed without the app's extra
+        print(f"error: the app needs its extra (pip install 'scribbleseg[app]'): {e}", file=sys.stderr)
+        return 2
 
     qapp = QApplication.instance() or QApplication(sys.argv[:1])
     window = MainWindow(args.path)

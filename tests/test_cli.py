@@ -152,3 +152,11 @@ def test_a_coordinate_too_large_to_process_is_named(tmp_path):
     r = _run("info", str(path))
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.strip() == f"error: {path}: vertex 3 has a coordinate too large to process (1e+308; at most 1e+30 in magnitude)"
+
+
+def test_the_app_without_its_extra_says_what_to_install():
+    code = ("import sys; sys.modules['PySide6'] = None; from scribbleseg_app.main import main; "
+            "raise SystemExit(main([]))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.startswith("error: the app needs its extra (pip install 'scribbleseg[app]')")
