@@ -18,7 +18,7 @@ import scipy.sparse.linalg as sla
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from scribbleseg_core.engine.graphcut import INF, alpha_expansion
-from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph
+from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph, pair_mean
 
 
 @dataclass(frozen=True)
@@ -281,7 +281,7 @@ def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, cr
     scribble = np.asarray(scribble, dtype=np.int64)
     m = graph.num_faces
     w = graph.diffusion_weights * np.exp(-graph.concavity(convex) / crease)
-    L = graph.laplacian(np.maximum(w, 1e-9 * max(float(w.sum()) / max(w.size, 1), 1e-300)))  # sharp creases: weak, never cut off
+    L = graph.laplacian(np.maximum(w, 1e-9 * max(pair_mean(w), 1e-300)))  # sharp creases: weak, never cut off
     seeded = scribble >= 0
     P = np.zeros((m, k))
     P[seeded, scribble[seeded]] = 1.0
@@ -313,4 +313,4 @@ def contrast_factor(graph: DualGraph, values: np.ndarray, contrast: float, floor
     z = (v - v.mean()) / (v.std() + 1e-12)
     i, j = graph.pairs.T
     d2 = (z[i] - z[j]) ** 2
-    return floor + (1.0 - floor) * np.exp(-contrast * d2 / max(float(d2.sum()) / max(d2.size, 1), 1e-12))
+    return floor + (1.0 - floor) * np.exp(-contrast * d2 / max(pair_mean(d2), 1e-12))

@@ -49,9 +49,9 @@ class DualGraph:
     def crease_distance(self, delta: float = 0.5) -> np.ndarray:
         """Katz–Tal arc length: ``δ·geo/mean(geo) + (1-δ)·ang/mean(ang)``, (q,) float64,
         with ``ang`` the :meth:`concavity` at the default convex factor."""
-        geo = self.centroid_dist / max(_mean(self.centroid_dist), 1e-300)
+        geo = self.centroid_dist / max(pair_mean(self.centroid_dist), 1e-300)
         concavity = self.concavity()
-        ang_mean = _mean(concavity)
+        ang_mean = pair_mean(concavity)
         ang = concavity / ang_mean if ang_mean > 0 else np.zeros_like(geo)
         return delta * geo + (1 - delta) * ang + 1e-12
 
@@ -59,7 +59,7 @@ class DualGraph:
         """Potts weight per face pair, ``smoothness · (ℓ / mean ℓ) · exp(−concavity /
         crease)`` with the :meth:`concavity` at factor `convex`: cutting along a concave
         crease is cheap, across a smooth or convex region dear; (q,) float64."""
-        ell = self.length / max(_mean(self.length), 1e-300)
+        ell = self.length / max(pair_mean(self.length), 1e-300)
         return smoothness * ell * np.exp(-self.concavity(convex) / crease)
 
     @cached_property
@@ -102,6 +102,6 @@ def dual_graph(V: np.ndarray, F: np.ndarray) -> DualGraph:
     return DualGraph(pairs, length, np.linalg.norm(C[i] - C[j], axis=1), bend, concave, F.shape[0])
 
 
-def _mean(values: np.ndarray) -> float:
-    """Mean of a per-pair array; 0 for a graph without pairs (e.g. a triangle soup)."""
+def pair_mean(values: np.ndarray) -> float:
+    """Mean of a per-pair array, (q,) → float; 0 for a graph without pairs (a triangle soup)."""
     return float(values.sum()) / max(values.size, 1)
