@@ -218,7 +218,7 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
     n = len(problem.shapes)
     labels = problem.initial_labels()
     energy = problem.energy(labels, None)
-    yield Snapshot(0, "init", energy, problem.frozen(labels), tuple(lab is not None for lab in labels),
+    yield Snapshot(0, "init", energy, _frozen(labels, problem.shapes), tuple(lab is not None for lab in labels),
                    time.perf_counter() - t)
     t = time.perf_counter()  # the network's inputs count into the first training
     inputs = [params.network_input(s) if problem.trains_on(i) else None for i, s in enumerate(problem.shapes)]
@@ -239,17 +239,18 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
             break
         logp, energy = new_logp, e_train
         model = problem.model(net.main)
-        yield Snapshot(it, "train", energy, problem.frozen(labels), (False,) * n, time.perf_counter() - t, model)
+        yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
+                       model)
         t = time.perf_counter()
         new = problem.cut(labels, logp)
         changed = tuple(b is not None and (a is None or not np.array_equal(a, b)) for a, b in zip(labels, new))
         labels, energy = new, problem.energy(new, logp)
-        yield Snapshot(it, "graphcut", energy, problem.frozen(labels), changed, time.perf_counter() - t, model)
+        yield Snapshot(it, "graphcut", energy, _frozen(labels, problem.shapes), changed, time.perf_counter() - t, model)
         converged = not any(changed) or energy.total > best * (1 - params.tolerance)
         best = min(best, energy.total)
         if converged:
             break
-    yield Snapshot(it, "done", energy, problem.frozen(labels), (False,) * n, time.perf_counter() - t0,
+    yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t0,
                    model or problem.model(net.main))
 
 
@@ -308,9 +309,6 @@ class _FaceProblem:
     def trains_on(self, i: int) -> bool:
         return True
 
-    def frozen(self, labels) -> tuple[np.ndarray, ...]:
-        return _frozen(labels, self.shapes)
-
     def initial_labels(self) -> list[np.ndarray | None]:
         return [e.cut() if e.is_scribbled else None for e in self.energies]
 
@@ -348,9 +346,6 @@ class _PatchProblem:
 
     def trains_on(self, i: int) -> bool:
         return self.shapes[i].is_scribbled
-
-    def frozen(self, labels) -> tuple[np.ndarray, ...]:
-        return _frozen(labels, self.shapes)
 
     def initial_labels(self) -> list[np.ndarray | None]:
         self.y = [None if U is None else alpha_expansion(U, s.patch_pairs, w)

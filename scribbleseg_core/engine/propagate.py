@@ -197,7 +197,7 @@ class FaceEnergy:
         """The energy of `labels` split into (scribble, network, smoothness); network is
         NaN without `log_proba`."""
         idx = np.arange(len(labels))
-        U = self.unary(None if not self.is_scribbled and log_proba is None else log_proba)
+        U = self.unary(log_proba)
         network = float("nan")
         if log_proba is not None and self.params.network > 0:
             net = self.params.network * -np.maximum(np.asarray(log_proba, dtype=np.float64)[idx, labels], -30.0)
