@@ -22,14 +22,14 @@ class NetworkParams:
         Dropout after each hidden layer, in training only; it is what makes the network
         carry over from the training shapes' labels to unseen shapes. Default 0.3.
     epochs, warm_epochs : int
-        Passes over the training faces from scratch (40) and when continuing from the
-        previous weights (15).
+        Epochs from scratch (30) and when continuing from the previous weights (10).
     batch_size : int
         Faces per step. Default 1024.
     learning_rate, weight_decay : float
         AdamW with a one-cycle schedule. Defaults 3e-3 and 1e-4.
-    max_faces_per_shape : int
-        Faces sampled per shape and training. Default 4000.
+    faces_per_epoch : int
+        Labeled faces drawn afresh from each shape for every epoch (all of them where a shape
+        has fewer). Default 1500.
     balance_classes : bool
         Weight the loss by inverse label frequency. Default True.
     seed : int
@@ -42,40 +42,55 @@ class NetworkParams:
 
     hidden: tuple[int, int] = (128, 64)
     dropout: float = 0.3
-    epochs: int = 40
-    warm_epochs: int = 15
+    epochs: int = 30
+    warm_epochs: int = 10
     batch_size: int = 1024
     learning_rate: float = 3e-3
     weight_decay: float = 1e-4
-    max_faces_per_shape: int = 4000
+    faces_per_epoch: int = 1500
     balance_classes: bool = True
     seed: int = 0
     threads: int | None = None
 
 
-def sample_faces(X: list[np.ndarray], y: list[np.ndarray], per_shape: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """The labeled faces of several shapes, at most `per_shape` of each drawn at random.
+class _EpochSampler:
+    """The labeled faces of several shapes, with a fresh draw from each shape for every epoch.
 
     Parameters
     ----------
     X : list of (m_s, d) ndarray
     y : list of (m_s,) int ndarray
         -1 for faces not to train on.
-
-    Returns
-    -------
-    X : (N, d) ndarray
-    y : (N,) int64 ndarray
+    per_shape : int
+        Faces drawn from each shape per epoch (without replacement; all where fewer).
+    seed : int
     """
-    rng = np.random.default_rng(seed)
-    Xs, ys = [], []
-    for Xi, yi in zip(X, y):
-        keep = np.flatnonzero(np.asarray(yi) >= 0)
-        if len(keep) > per_shape:
-            keep = rng.choice(keep, per_shape, replace=False)
-        Xs.append(Xi[keep])
-        ys.append(np.asarray(yi)[keep])
-    return np.concatenate(Xs), np.concatenate(ys).astype(np.int64)
+
+    def __init__(self, X, y, per_shape: int, seed: int):
+        keep = [np.flatnonzero(np.asarray(yi) >= 0) for yi in y]
+        used = [i for i, k in enumerate(keep) if len(k)]
+        self.X = [X[i] for i in used]
+        self.keep = [keep[i] for i in used]
+        self.y = [np.asarray(y[i])[keep[i]].astype(np.int64) for i in used]
+        self.per_shape = per_shape
+        self.rng = np.random.default_rng(seed)
+
+    def __len__(self) -> int:
+        """Faces per epoch."""
+        return sum(min(len(k), self.per_shape) for k in self.keep)
+
+    def label_counts(self, k: int) -> np.ndarray:
+        """(k,) labeled faces per label over all shapes."""
+        return sum(np.bincount(yi, minlength=k) for yi in self.y).astype(float)
+
+    def draw(self) -> tuple[np.ndarray, np.ndarray]:
+        """This epoch's faces in random order: inputs (N, d) and labels (N,)."""
+        rows = [self.rng.choice(len(k), self.per_shape, replace=False) if len(k) > self.per_shape else
+                np.arange(len(k)) for k in self.keep]
+        Xe = np.concatenate([Xi[k[r]] for Xi, k, r in zip(self.X, self.keep, rows)])
+        ye = np.concatenate([yi[r] for yi, r in zip(self.y, rows)])
+        order = self.rng.permutation(len(ye))
+        return Xe[order], ye[order]
 
 
 def torch_threads() -> int:
@@ -175,38 +190,38 @@ class FaceClassifier:
 
         p = self.params
         torch.set_num_threads(p.threads or torch_threads())
-        Xa, ya = sample_faces(X, y, p.max_faces_per_shape, p.seed)
-        if not warm or not self.trained:
-            self.mean, self.std = Xa.mean(0), Xa.std(0) + 1e-8
+        warm = warm and self.trained
+        data = _EpochSampler(X, y, p.faces_per_epoch, p.seed)
+        if not warm:
+            first, _ = data.draw()
+            self.mean, self.std = first.mean(0), first.std(0) + 1e-8
             torch.manual_seed(p.seed)
             self.net = build_mlp(self.num_inputs, self.num_labels, p.hidden, p.dropout, p.seed)
-        counts = np.bincount(ya, minlength=self.num_labels).astype(float)
+        counts = data.label_counts(self.num_labels)
         w = np.where(counts > 0, counts.sum() / np.maximum(counts, 1) / max((counts > 0).sum(), 1), 0.0)
         weight = torch.from_numpy((w if p.balance_classes else (counts > 0).astype(float)).astype(np.float32))
-        Xt = torch.from_numpy(((Xa - self.mean) / self.std).astype(np.float32))
-        yt = torch.from_numpy(ya)
-        opt = torch.optim.AdamW(self.net.parameters(), lr=p.learning_rate, weight_decay=p.weight_decay)
+        opt = torch.optim.AdamW(self.net.parameters(), lr=p.learning_rate, weight_decay=p.weight_decay, fused=True)
         loss_fn = torch.nn.CrossEntropyLoss(weight=weight)
-        epochs = p.warm_epochs if (warm and self.trained) else p.epochs
-        gen = torch.Generator().manual_seed(p.seed)
+        epochs = p.warm_epochs if warm else p.epochs
         sched = torch.optim.lr_scheduler.OneCycleLR(
-            opt, max_lr=p.learning_rate, total_steps=epochs * ((len(Xt) + p.batch_size - 1) // p.batch_size)
+            opt, max_lr=p.learning_rate, total_steps=epochs * ((len(data) + p.batch_size - 1) // p.batch_size)
         )
         self.net.train()
         last = 0.0
         for _ in range(epochs):
-            perm = torch.randperm(len(Xt), generator=gen)
-            total, n = 0.0, 0
-            for s in range(0, len(Xt), p.batch_size):
-                idx = perm[s : s + p.batch_size]
+            Xe, ye = data.draw()
+            Xt = torch.from_numpy(((Xe - self.mean) / self.std).astype(np.float32))
+            yt = torch.from_numpy(ye)
+            total = torch.zeros(())
+            for s in range(0, len(yt), p.batch_size):
+                xb, yb = Xt[s : s + p.batch_size], yt[s : s + p.batch_size]
                 opt.zero_grad()
-                loss = loss_fn(self.net(Xt[idx]), yt[idx])
+                loss = loss_fn(self.net(xb), yb)
                 loss.backward()
                 opt.step()
                 sched.step()
-                total += loss.item() * len(idx)
-                n += len(idx)
-            last = total / max(n, 1)
+                total += loss.detach() * len(yb)
+            last = float(total) / max(len(yt), 1)
         self.net.eval()
         self.trained = True
         return last

@@ -22,7 +22,7 @@ from scribbleseg_core.signatures.features import NUM_FEATURES
 from scribbleseg_core.store.model_file import load_model, save_model
 from tests.core.planted import LABELS, creature, stroke_faces
 
-PARAMS = SegmentParams(network=NetworkParams(epochs=30, warm_epochs=10, max_faces_per_shape=3000))
+PARAMS = SegmentParams(network=NetworkParams(epochs=30, warm_epochs=10, faces_per_epoch=1000))
 
 
 @pytest.fixture(scope="module")
