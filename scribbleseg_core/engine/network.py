@@ -10,9 +10,20 @@ from functools import cache
 import numpy as np
 
 
+#: Faces per optimizer step (fewer when an epoch holds under 8 such batches, so small
+#: collections still take 8 steps an epoch); AdamW's peak learning rate (one-cycle
+#: schedule) and weight decay.
+BATCH_SIZE, LEARNING_RATE, WEIGHT_DECAY = 1024, 3e-3, 1e-4
+
+
 @dataclass(frozen=True)
 class NetworkParams:
     """Architecture and training schedule.
+
+    The loss is the cross-entropy weighted by inverse label frequency; AdamW with a one-cycle
+    schedule (:data:`BATCH_SIZE`, :data:`LEARNING_RATE`, :data:`WEIGHT_DECAY`). Training
+    that continues from the previous weights (a later round of the alternation) runs a third
+    of the epochs.
 
     Attributes
     ----------
@@ -21,17 +32,11 @@ class NetworkParams:
     dropout : float
         Dropout after each hidden layer, in training only; it is what makes the network
         carry over from the training shapes' labels to unseen shapes. Default 0.3.
-    epochs, warm_epochs : int
-        Epochs from scratch (30) and when continuing from the previous weights (10).
-    batch_size : int
-        Faces per step. Default 1024.
-    learning_rate, weight_decay : float
-        AdamW with a one-cycle schedule. Defaults 3e-3 and 1e-4.
+    epochs : int
+        Epochs when training from scratch. Default 30.
     faces_per_epoch : int
         Labeled faces drawn afresh from each shape for every epoch (all of them where a shape
         has fewer). Default 1500.
-    balance_classes : bool
-        Weight the loss by inverse label frequency. Default True.
     seed : int
         Initialization and face sampling. Default 0.
     threads : int, optional
@@ -43,14 +48,24 @@ class NetworkParams:
     hidden: tuple[int, int] = (128, 64)
     dropout: float = 0.3
     epochs: int = 30
-    warm_epochs: int = 10
-    batch_size: int = 1024
-    learning_rate: float = 3e-3
-    weight_decay: float = 1e-4
     faces_per_epoch: int = 1500
-    balance_classes: bool = True
     seed: int = 0
     threads: int | None = None
+
+    def __post_init__(self):
+        if len(self.hidden) != 2 or min(self.hidden) < 1:
+            raise ValueError(f"hidden must be two positive widths; got {self.hidden}")
+        if not 0 <= self.dropout < 1:
+            raise ValueError(f"dropout must lie in [0, 1); got {self.dropout}")
+        if self.epochs < 1 or self.faces_per_epoch < 1:
+            raise ValueError(f"epochs and faces_per_epoch must be positive; got {self.epochs}, {self.faces_per_epoch}")
+        if self.threads is not None and self.threads < 1:
+            raise ValueError(f"threads must be positive or None; got {self.threads}")
+
+    @property
+    def warm_epochs(self) -> int:
+        """Epochs when continuing from the previous weights: a third of :attr:`epochs`."""
+        return max(1, -(-self.epochs // 3))
 
 
 class _EpochSampler:
@@ -94,11 +109,16 @@ class _EpochSampler:
 
 
 def torch_threads() -> int:
-    """The number of cores this process may run on (its CPU affinity)."""
+    """Threads for torch: the cores this process may use (its CPU affinity), at most
+    ``OMP_NUM_THREADS`` where that is set (as Dask's nanny sets it to 1 for each worker)."""
     try:
-        return max(1, len(os.sched_getaffinity(0)))
+        cores = max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not on Linux
-        return max(1, os.cpu_count() or 1)
+        cores = max(1, os.cpu_count() or 1)
+    try:
+        return max(1, min(cores, int(os.environ["OMP_NUM_THREADS"])))
+    except (KeyError, ValueError):
+        return cores
 
 
 def build_mlp(d: int, c: int, hidden: tuple[int, int], dropout: float = 0.0, seed: int = 0):
@@ -199,12 +219,13 @@ class FaceClassifier:
             self.net = build_mlp(self.num_inputs, self.num_labels, p.hidden, p.dropout, p.seed)
         counts = data.label_counts(self.num_labels)
         w = np.where(counts > 0, counts.sum() / np.maximum(counts, 1) / max((counts > 0).sum(), 1), 0.0)
-        weight = torch.from_numpy((w if p.balance_classes else (counts > 0).astype(float)).astype(np.float32))
-        opt = torch.optim.AdamW(self.net.parameters(), lr=p.learning_rate, weight_decay=p.weight_decay, fused=True)
+        weight = torch.from_numpy(w.astype(np.float32))
+        opt = torch.optim.AdamW(self.net.parameters(), lr=LEARNING_RATE, weight_decay=WEIGHT_DECAY, fused=True)
         loss_fn = torch.nn.CrossEntropyLoss(weight=weight)
         epochs = p.warm_epochs if warm else p.epochs
+        batch = max(1, min(BATCH_SIZE, -(-len(data) // 8)))
         sched = torch.optim.lr_scheduler.OneCycleLR(
-            opt, max_lr=p.learning_rate, total_steps=epochs * ((len(data) + p.batch_size - 1) // p.batch_size)
+            opt, max_lr=LEARNING_RATE, total_steps=epochs * -(-len(data) // batch)
         )
         self.net.train()
         last = 0.0
@@ -213,8 +234,8 @@ class FaceClassifier:
             Xt = torch.from_numpy(((Xe - self.mean) / self.std).astype(np.float32))
             yt = torch.from_numpy(ye)
             total = torch.zeros(())
-            for s in range(0, len(yt), p.batch_size):
-                xb, yb = Xt[s : s + p.batch_size], yt[s : s + p.batch_size]
+            for s in range(0, len(yt), batch):
+                xb, yb = Xt[s : s + batch], yt[s : s + batch]
                 opt.zero_grad()
                 loss = loss_fn(self.net(xb), yb)
                 loss.backward()

@@ -49,6 +49,8 @@ from scribbleseg_core.signatures.context import DEFAULT_SCALES
 Method = Literal["face", "paper"]
 METHODS: tuple[str, ...] = ("face", "paper")
 Phase = Literal["init", "train", "graphcut", "done"]
+#: The alternation has converged when a round lowers the total energy by less than this fraction.
+TOLERANCE = 1e-3
 
 
 @dataclass(frozen=True)
@@ -62,9 +64,9 @@ class SegmentParams:
         :class:`~scribbleseg_core.engine.propagate.FaceEnergy`; ``"paper"``: the paper's
         patch-level alternation (eq. 1–4).
     rounds : int
-        Network/graph-cut rounds at most (the paper converges in about 4). Default 3.
-    tolerance : float
-        Stop when a round lowers the total energy by less than this fraction. Default 1e-3.
+        Network/graph-cut rounds at most (the paper converges in about 4); the alternation
+        stops earlier when no label changes or a round lowers the total energy by less than
+        :data:`TOLERANCE`. Default 3.
     lam : float
         ``"paper"`` only: λ of the feature term (the paper: 1).
     context_scales : tuple of float
@@ -90,7 +92,6 @@ class SegmentParams:
 
     method: Method = "face"
     rounds: int = 3
-    tolerance: float = 1e-3
     lam: float = 1.0
     context_scales: tuple[float, ...] = DEFAULT_SCALES
     local_shape: bool = True
@@ -105,8 +106,6 @@ class SegmentParams:
             raise ValueError(f"method must be one of {', '.join(map(repr, METHODS))}; got {self.method!r}")
         if self.rounds < 1:
             raise ValueError(f"rounds must be at least 1; got {self.rounds}")
-        if not 0 <= self.tolerance < 1:
-            raise ValueError(f"tolerance must lie in [0, 1); got {self.tolerance}")
         if not self.lam >= 0:
             raise ValueError(f"lam must not be negative; got {self.lam}")
         if any(not t > 0 for t in self.context_scales):
@@ -246,7 +245,7 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
         changed = tuple(b is not None and (a is None or not np.array_equal(a, b)) for a, b in zip(labels, new))
         labels, energy = new, problem.energy(new, logp)
         yield Snapshot(it, "graphcut", energy, _frozen(labels, problem.shapes), changed, time.perf_counter() - t, model)
-        converged = not any(changed) or energy.total > best * (1 - params.tolerance)
+        converged = not any(changed) or energy.total > best * (1 - TOLERANCE)
         best = min(best, energy.total)
         if converged:
             break

@@ -21,6 +21,10 @@ from scribbleseg_core.engine.graphcut import INF, alpha_expansion
 from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph, pair_mean
 
 
+#: Alpha-expansion sweeps at most per cut (each sweep tries every label once).
+MAX_SWEEPS = 4
+
+
 @dataclass(frozen=True)
 class PropagateParams:
     """Weights of the propagation energy.
@@ -62,8 +66,6 @@ class PropagateParams:
         How much a convex crease (a ridge) counts against a concave one (a valley) in the
         smoothness and the walk (:meth:`DualGraph.concavity`); the crease-aware distance
         keeps :data:`~scribbleseg_core.geometry.dual_graph.CONVEX_FACTOR`. Default 0.02.
-    max_sweeps : int
-        Alpha-expansion sweeps at most. Default 4.
     """
 
     distance: float = 0.1
@@ -75,7 +77,6 @@ class PropagateParams:
     contrast_floor: float = 0.5
     walk: float = 1.0
     convex: float = 0.02
-    max_sweeps: int = 4
 
 
 def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int) -> np.ndarray:
@@ -191,7 +192,7 @@ class FaceEnergy:
         when given (the energy never rises above it), else from the unary argmin."""
         U = self.unary(log_proba)
         start = np.argmin(U, axis=1) if init is None else init
-        return alpha_expansion(U, self.pairs, self.weights, init=start, max_sweeps=self.params.max_sweeps)
+        return alpha_expansion(U, self.pairs, self.weights, init=start, max_sweeps=MAX_SWEEPS)
 
     def terms(self, labels: np.ndarray, log_proba: np.ndarray | None = None) -> tuple[float, float, float]:
         """The energy of `labels` split into (scribble, network, smoothness); network is

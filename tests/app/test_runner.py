@@ -25,7 +25,7 @@ def test_collection_run_streams_steps_of_every_shape(monkeypatch, tmp_path):
             for lab in range(3):
                 scr[stroke_faces(mesh, gt, lab)] = lab
         scribbles.append(scr)
-    params = SegmentParams(network=NetworkParams(epochs=20, warm_epochs=8, faces_per_epoch=1000))
+    params = SegmentParams(network=NetworkParams(epochs=20, faces_per_epoch=1000))
     msgs = list(collection_run(meshes, scribbles, LABELS, params))
     assert [m.done for m in msgs if isinstance(m, FeaturesDone)] == [1, 2, 3]
     steps = [m for m in msgs if isinstance(m, StepDone)]

@@ -15,7 +15,7 @@ from scribbleseg_core.formats.seg import write_seg
 from tests.conftest import write_off
 from tests.core.planted import LABELS, creature, stroke_faces
 
-FAST = SegmentParams(network=NetworkParams(epochs=20, warm_epochs=8, faces_per_epoch=1000))
+FAST = SegmentParams(network=NetworkParams(epochs=20, faces_per_epoch=1000))
 
 
 @pytest.fixture(scope="module")

@@ -22,7 +22,7 @@ from scribbleseg_core.signatures.features import NUM_FEATURES
 from scribbleseg_core.store.model_file import load_model, save_model
 from tests.core.planted import LABELS, creature, stroke_faces
 
-PARAMS = SegmentParams(network=NetworkParams(epochs=30, warm_epochs=10, faces_per_epoch=1000))
+PARAMS = SegmentParams(network=NetworkParams(epochs=30, faces_per_epoch=1000))
 
 
 @pytest.fixture(scope="module")
@@ -159,10 +159,16 @@ def test_paper_variant_is_the_patch_level_alternation(collection, paper):
 def test_parameters_are_checked_when_made():
     for bad, message in [(dict(method="magic"), "method must be one of 'face', 'paper'"),
                          (dict(rounds=0), "rounds must be at least 1"),
-                         (dict(tolerance=1.0), "tolerance must lie in"),
                          (dict(context_scales=(0.01, -1.0)), "context_scales must be positive")]:
         with pytest.raises(ValueError, match=message):
             SegmentParams(**bad)
+    for bad, message in [(dict(hidden=(64, 0)), "hidden must be two positive widths"),
+                         (dict(dropout=1.0), "dropout must lie in"),
+                         (dict(epochs=0), "epochs and faces_per_epoch must be positive"),
+                         (dict(threads=0), "threads must be positive")]:
+        with pytest.raises(ValueError, match=message):
+            NetworkParams(**bad)
+    assert NetworkParams(epochs=30).warm_epochs == 10 and NetworkParams(epochs=1).warm_epochs == 1
 
 
 def test_no_scribbles_at_all_is_refused(collection):

@@ -7,7 +7,7 @@ import numpy as np
 from scribbleseg_core.engine.network import FaceClassifier, NetworkParams, build_mlp
 
 # small and fast; the schedule is the default one scaled down
-PARAMS = NetworkParams(hidden=(16, 8), epochs=30, warm_epochs=5, batch_size=256, threads=1)
+PARAMS = NetworkParams(hidden=(16, 8), epochs=30, threads=1)
 
 
 def _blobs(seed: int, n: int = 600, k: int = 3, d: int = 5):
