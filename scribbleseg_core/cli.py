@@ -13,6 +13,7 @@ from pathlib import Path
 from scribbleseg_core import __version__
 from scribbleseg_core.engine.optimize import METHODS
 from scribbleseg_core.errors import ScribblesegError
+from scribbleseg_core.formats.mesh import MESH_EXTENSIONS
 
 
 def _cmd_info(args) -> int:
@@ -48,10 +49,6 @@ def _output_folder(path: str) -> Path:
     return out
 
 
-def _progress(items, quiet: bool, desc: str):
-    return items if quiet else _bar(None, desc, items)
-
-
 def _bar(total, desc: str, items=None):
     from tqdm import tqdm
 
@@ -65,6 +62,21 @@ def _write_file_labels(out: Path, mesh, file_labels, label_names) -> None:
 
     export_labeled_mesh(out, mesh.name, mesh.V_file, mesh.F_file, file_labels,
                         LabelSet.from_names(label_names), formats=["seg", "ply"])
+
+
+def _signature_pass(paths, args) -> None:
+    """Signatures of the meshes not yet cached, in parallel on Dask (the path of ``predict``)."""
+    from scribbleseg_core.scale.run import signatures_many
+
+    if len(paths) < 2 and not args.scheduler:
+        return  # one mesh: no cluster to start
+    bar = None if args.quiet else _bar(len(paths), "signatures")
+    summary = signatures_many(paths, workers=args.workers, scheduler=args.scheduler,
+                              progress=None if bar is None else (lambda done, total: bar.update(done - bar.n)))
+    if bar is not None:
+        bar.close()
+    if not args.quiet and summary.done:
+        print(f"signatures of {summary.done} shapes in {summary.seconds:.1f} s", file=sys.stderr)
 
 
 def _cmd_segment(args) -> int:
@@ -95,6 +107,7 @@ def _cmd_segment(args) -> int:
                                    f"the mesh has {mesh.num_file_faces}")
         meshes.append(mesh)
     scribbles = [coll.face_labels(path) for path in coll.meshes]
+    _signature_pass(coll.meshes, args)
     params = SegmentParams(method=args.method)
     bar = None if args.quiet else _bar(len(meshes), "features")
     last, predicted = None, 0
@@ -125,22 +138,37 @@ def _cmd_segment(args) -> int:
 
 
 def _cmd_predict(args) -> int:
-    from scribbleseg_core.engine.predict import predict_shape
-    from scribbleseg_core.engine.shape import prepare_shape
-    from scribbleseg_core.formats.mesh import load_mesh
-    from scribbleseg_core.store.model_file import load_model
+    from scribbleseg_core.scale.inputs import gather_sources
+    from scribbleseg_core.scale.run import ERRORS_NAME, predict_many
 
     out = _output_folder(args.out)
-    model = load_model(args.model)
-    for path in _progress(args.meshes, args.quiet, "predict"):
-        mesh = load_mesh(path)
-        labels = predict_shape(model, prepare_shape(mesh, num_patches=args.patches))
-        _write_file_labels(out, mesh, mesh.labels_to_file(labels), model.label_names)
-    return 0
+    sources = gather_sources(args.inputs, exclude=out)
+    if not sources:
+        raise ScribblesegError(f"no mesh files ({', '.join(MESH_EXTENSIONS)}) in {' '.join(args.inputs)}")
+    bar = None if args.quiet else _bar(len(sources), "predict")
+
+    def progress(done: int, total: int) -> None:
+        if bar is not None:
+            bar.update(done - bar.n)
+
+    summary = predict_many(args.model, sources, out, workers=args.workers, scheduler=args.scheduler,
+                           force=args.force, num_patches=args.patches, progress=progress)
+    if bar is not None:
+        bar.close()
+    if not args.quiet:
+        print(summary.table(), file=sys.stderr)
+    for e in summary.errors[:5]:
+        print(f"error: {e['message']}", file=sys.stderr)
+    if summary.failed:
+        more = f" ({summary.failed - 5} more)" if summary.failed > 5 else ""
+        print(f"{summary.failed} of {len(sources)} shapes failed{more}: see {out / ERRORS_NAME}", file=sys.stderr)
+    return 0 if summary.ok else 1
 
 
 def _cmd_bench(args) -> int:
     from scribbleseg_core.evaluation.benchmark import bench
+    from scribbleseg_core.evaluation.psb import categories
+    from scribbleseg_core.formats.mesh import find_meshes
 
     root = Path(args.data)
     if not (root.is_dir() and any(p.is_dir() and (p / "labels").is_dir() for p in root.iterdir())):
@@ -149,6 +177,8 @@ def _cmd_bench(args) -> int:
     progress = None if args.quiet else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
     params = _bench_params(args)
     out = _output_folder(args.out)
+    cats = args.categories or categories(root)
+    _signature_pass([m for c in cats if (root / c).is_dir() for m in find_meshes(root / c)], args)
     report = bench(root, out, modes=modes, cats=args.categories, folds=args.folds,
                    scribbled=args.scribbled, coverage=args.coverage, seed=args.seed, labels=args.labels,
                    params=params, progress=progress)
@@ -205,6 +235,14 @@ def _non_negative(text: str) -> float:
     return value
 
 
+def _cluster_options(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--workers", type=_int_at_least(1), default=None,
+                   help=f"compute {what} on a Dask LocalCluster of this many processes (default: one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="use an existing Dask cluster instead (e.g. tcp://host:8786); the files and the "
+                        "signature cache must be on a file system its workers share")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="scribbleseg", description="Scribble-based segmentation of 3D shape collections."
@@ -222,14 +260,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=METHODS, default="face",
                    help="face: the alternation on faces (default); paper: the paper's patch-level alternation")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    _cluster_options(p, "the signatures")
     p.set_defaults(func=_cmd_segment)
 
-    p = sub.add_parser("predict", help="segment meshes with a trained model")
+    p = sub.add_parser("predict", help="segment meshes with a trained model, in parallel on Dask",
+                       description="Segment meshes with a trained model. Shapes run in parallel on a Dask "
+                                   "LocalCluster (one process per core) or on an existing cluster (--scheduler). "
+                                   "A rerun skips shapes already done with this model (OUT/manifest.jsonl); "
+                                   "shapes that fail are listed in OUT/errors.json and the exit status is 1.")
     p.add_argument("model", help="a model folder written by 'segment' (OUT/model)")
-    p.add_argument("meshes", nargs="+")
-    p.add_argument("--out", required=True)
-    p.add_argument("--patches", type=int, default=50)
-    p.add_argument("--quiet", action="store_true")
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="mesh files, folders (searched recursively) or .txt files listing paths")
+    p.add_argument("--out", required=True, help="output folder: <name>.seg and <name>.ply per mesh, "
+                                                "keeping the folders' layout")
+    p.add_argument("--force", action="store_true", help="redo shapes already done")
+    _cluster_options(p, "the shapes")
+    p.add_argument("--patches", type=int, default=50, help="primitive patches per shape (paper-faithful models)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     p.set_defaults(func=_cmd_predict)
 
     p = sub.add_parser("bench", help="evaluate on PSB-style data (../shared/psb) and write a report")
@@ -268,6 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default SegmentParams.local_shape; --no-local-shape: the signatures and their context only)")
     p.add_argument("--out", required=True)
     p.add_argument("--quiet", action="store_true")
+    _cluster_options(p, "the signatures")
     p.set_defaults(func=_cmd_bench)
 
     p = sub.add_parser("bench-merge", help="merge benchmark reports run apart (e.g. one per core, by categories or by modes)")

@@ -25,6 +25,7 @@ def write_off(path, V, faces) -> None:
     lines = ["OFF", f"{len(V)} {len(faces)} 0"]
     lines += [" ".join(f"{x:.17g}" for x in v) for v in V]
     lines += [" ".join(str(int(i)) for i in [len(f), *f]) for f in faces]
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text("\n".join(lines) + "\n")
 
 

@@ -1,0 +1,1 @@
+"""Prediction at scale: many shapes, one trained model, on a Dask cluster."""

@@ -1,0 +1,89 @@
+"""What one Dask task does with one mesh; runs in the worker processes.
+
+The model is read once per worker process and kept (:func:`worker_model`), so tasks carry
+only paths. Each task returns a small dict, never raises for a bad mesh: an error is a
+result the driver records, and the job goes on.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import traceback
+from pathlib import Path
+
+from scribbleseg_core.errors import ScribblesegError
+
+#: Models read in this process, by (folder, job fingerprint).
+_MODELS: dict[tuple[str, str], object] = {}
+
+
+def worker_model(folder: str, job: str):
+    """The model in `folder`, read on this process's first call with this job fingerprint."""
+    from scribbleseg_core.store.model_file import load_model
+
+    key = (folder, job)
+    if key not in _MODELS:
+        _MODELS.clear()  # one job at a time per worker: drop the previous model
+        _MODELS[key] = load_model(folder)
+    return _MODELS[key]
+
+
+def predict_task(model_folder: str, job: str, source: str, key: str, out: str, formats: tuple[str, ...],
+                 num_patches: int) -> dict:
+    """Segment the mesh `source` with the model and write ``out/<key>.<format>`` atomically.
+
+    Returns
+    -------
+    dict
+        ``{"key", "outputs": [paths relative to out], "faces", "seconds"}``, or
+        ``{"key", "error": message}`` when the mesh cannot be read or processed.
+    """
+    t0 = time.perf_counter()
+    try:
+        from scribbleseg_core.engine.predict import predict_shape
+        from scribbleseg_core.engine.shape import prepare_shape
+        from scribbleseg_core.formats.export import export_labeled_mesh
+        from scribbleseg_core.formats.labels import LabelSet
+        from scribbleseg_core.formats.mesh import load_mesh
+
+        model = worker_model(model_folder, job)
+        mesh = load_mesh(source)
+        labels = mesh.labels_to_file(predict_shape(model, prepare_shape(mesh, num_patches=num_patches)))
+        target = Path(out) / key
+        written = export_labeled_mesh(target.parent, target.name, mesh.V_file, mesh.F_file, labels,
+                                      LabelSet.from_names(model.label_names), formats=formats)
+        outputs = [p.relative_to(out).as_posix() for p in written]
+        return {"key": key, "outputs": outputs, "faces": int(mesh.num_file_faces),
+                "seconds": time.perf_counter() - t0}
+    except ScribblesegError as e:
+        message = str(e) if e.path else f"{source}: {e}"
+        return {"key": key, "error": message}
+    except MemoryError:
+        return {"key": key, "error": f"{source}: out of memory"}
+    except Exception as e:  # noqa: BLE001 - a bug on one mesh must not end a job of thousands
+        last = traceback.extract_tb(e.__traceback__)[-1]
+        return {"key": key, "error": f"{source}: {type(e).__name__}: {e} "
+                                     f"({os.path.basename(last.filename)}:{last.lineno})"}
+
+
+def signature_task(source: str) -> dict:
+    """Compute the signatures of one mesh into the signature cache (shared with the client).
+
+    Returns
+    -------
+    dict
+        ``{"source", "faces", "seconds"}`` or ``{"source", "error": message}``.
+    """
+    t0 = time.perf_counter()
+    try:
+        from scribbleseg_core.formats.mesh import load_mesh
+        from scribbleseg_core.signatures.features import cached_face_features
+
+        mesh = load_mesh(source)
+        cached_face_features(mesh.V, mesh.F)
+        return {"source": source, "faces": int(mesh.num_file_faces), "seconds": time.perf_counter() - t0}
+    except ScribblesegError as e:
+        return {"source": source, "error": str(e) if e.path else f"{source}: {e}"}
+    except Exception as e:  # noqa: BLE001
+        return {"source": source, "error": f"{source}: {type(e).__name__}: {e}"}
