@@ -64,14 +64,14 @@ def _write_file_labels(out: Path, mesh, file_labels, label_names) -> None:
                         LabelSet.from_names(label_names), formats=["seg", "ply"])
 
 
-def _signature_pass(paths, args) -> None:
+def _signature_pass(paths, args, meshes=None) -> None:
     """Signatures of the meshes not yet cached, in parallel on Dask (the path of ``predict``)."""
     from scribbleseg_core.scale.run import signatures_many
 
     if len(paths) < 2 and not args.scheduler:
         return  # one mesh: no cluster to start
     bar = None if args.quiet else _bar(len(paths), "signatures")
-    summary = signatures_many(paths, workers=args.workers, scheduler=args.scheduler,
+    summary = signatures_many(paths, meshes=meshes, workers=args.workers, scheduler=args.scheduler,
                               progress=None if bar is None else (lambda done, total: bar.update(done - bar.n)))
     if bar is not None:
         bar.close()
@@ -107,7 +107,7 @@ def _cmd_segment(args) -> int:
                                    f"the mesh has {mesh.num_file_faces}")
         meshes.append(mesh)
     scribbles = [coll.face_labels(path) for path in coll.meshes]
-    _signature_pass(coll.meshes, args)
+    _signature_pass(coll.meshes, args, meshes)
     params = SegmentParams(method=args.method)
     bar = None if args.quiet else _bar(len(meshes), "features")
     last, predicted = None, 0

@@ -9,7 +9,6 @@ from functools import cache
 
 import numpy as np
 
-
 #: Faces per optimizer step (fewer when an epoch holds under 8 such batches, so small
 #: collections still take 8 steps an epoch); AdamW's peak learning rate (one-cycle
 #: schedule) and weight decay.

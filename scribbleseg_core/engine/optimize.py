@@ -375,7 +375,7 @@ def _frozen(labels, shapes) -> tuple[np.ndarray, ...]:
     """Read-only int64 copies; -1 on every face of a shape not labeled yet (None)."""
     out = []
     for lab, s in zip(labels, shapes):
-        a = np.full(len(s.patch), -1, np.int64) if lab is None else np.array(lab, dtype=np.int64, copy=True)
+        a = np.full(s.graph.num_faces, -1, np.int64) if lab is None else np.array(lab, dtype=np.int64, copy=True)
         a.flags.writeable = False
         out.append(a)
     return tuple(out)

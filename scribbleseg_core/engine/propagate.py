@@ -20,7 +20,6 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 from scribbleseg_core.engine.graphcut import INF, alpha_expansion
 from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph, pair_mean
 
-
 #: Alpha-expansion sweeps at most per cut (each sweep tries every label once).
 MAX_SWEEPS = 4
 

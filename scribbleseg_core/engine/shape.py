@@ -28,23 +28,37 @@ class ShapeData:
     area : (m,) float64 ndarray
         Face areas of the unit-area mesh.
     graph : DualGraph
-    patch : (m,) int64 ndarray
-        Patch id per face.
-    patch_pairs : (r, 2) int64 ndarray
-        Adjacent patches.
     scribble : (m,) int64 ndarray
         Scribble label per face (collection label ids), -1 where unscribbled.
+    target_patches : int
+        About how many primitive patches :attr:`patch` splits the shape into.
     """
 
     mesh: Mesh
     X: np.ndarray
     area: np.ndarray
     graph: DualGraph
-    patch: np.ndarray
-    patch_pairs: np.ndarray
     scribble: np.ndarray
+    target_patches: int = 50
     context_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def patch(self) -> np.ndarray:
+        """(m,) int64 patch id per face (:func:`~scribbleseg_core.engine.patches.over_segment`,
+        strokes of different labels never in one patch); computed on first use, since only the
+        paper's patch-level variant needs it."""
+        if "patch" not in self._cache:
+            scribble = self.scribble if (self.scribble >= 0).any() else None
+            self._cache["patch"] = over_segment(self.graph, self.target_patches, scribble_labels=scribble)
+        return self._cache["patch"]
+
+    @property
+    def patch_pairs(self) -> np.ndarray:
+        """(r, 2) int64 adjacent patches."""
+        if "patch_pairs" not in self._cache:
+            self._cache["patch_pairs"] = patch_adjacency(self.graph, self.patch)[0]
+        return self._cache["patch_pairs"]
 
     def network_input(self, context_scales: tuple[float, ...] = (), local_shape: bool = False) -> np.ndarray:
         """:func:`network_input` of this shape, kept per scales (with the local shape at
@@ -150,7 +164,7 @@ def prepare_shape(
     cache: ArrayCache | None = None,
     X: np.ndarray | None = None,
 ) -> ShapeData:
-    """Features (cached), dual graph and patches of one shape.
+    """Features (cached) and dual graph of one shape; its patches are made when first used.
 
     Parameters
     ----------
@@ -172,8 +186,6 @@ def prepare_shape(
         # a repaired face is scribbled if its own file face was
         scribble = np.asarray(file_scribble, dtype=np.int64)[mesh.proc_to_file]
     graph = dual_graph(V, F)
-    patch = over_segment(graph, num_patches, scribble_labels=scribble if (scribble >= 0).any() else None)
-    pairs, _ = patch_adjacency(graph, patch)
     # the context cache sits beside a given feature cache (else the user cache's)
     context_cache = None if cache is None else ArrayCache(cache.folder.parent / f"{cache.folder.name}-context")
-    return ShapeData(mesh, X, face_areas(V, F), graph, patch, pairs, scribble, context_cache)
+    return ShapeData(mesh, X, face_areas(V, F), graph, scribble, num_patches, context_cache)

@@ -43,6 +43,8 @@ class BatchSummary:
         Wall time of the job, cluster start included.
     errors : list of dict
         ``{"file", "message"}`` per failed shape.
+    peak_memory_mb : float
+        The largest peak resident memory a worker reported (0 when none did).
     """
 
     done: int = 0
@@ -50,6 +52,7 @@ class BatchSummary:
     failed: int = 0
     seconds: float = 0.0
     errors: list[dict] = field(default_factory=list)
+    peak_memory_mb: float = 0.0
 
     @property
     def ok(self) -> bool:
@@ -61,10 +64,11 @@ class BatchSummary:
 
     def table(self) -> str:
         """A two-line table for a terminal."""
-        head = f"{'shapes':>7} {'done':>6} {'skipped':>8} {'failed':>7} {'minutes':>8} {'shapes/min':>11}"
+        head = (f"{'shapes':>7} {'done':>6} {'skipped':>8} {'failed':>7} {'minutes':>8} {'shapes/min':>11} "
+                f"{'worker peak MB':>15}")
         total = self.done + self.skipped + self.failed
         row = (f"{total:>7} {self.done:>6} {self.skipped:>8} {self.failed:>7} {self.seconds / 60:>8.2f} "
-               f"{self.shapes_per_minute:>11.1f}")
+               f"{self.shapes_per_minute:>11.1f} {self.peak_memory_mb:>15.0f}")
         return head + "\n" + row
 
 
@@ -192,6 +196,7 @@ def predict_many(
         else:
             manifest.record(source, job, result["outputs"])
             summary.done += 1
+            summary.peak_memory_mb = max(summary.peak_memory_mb, result.get("peak_mb", 0.0))
         if progress:
             progress(summary.done + summary.skipped + summary.failed, len(sources))
 
@@ -208,6 +213,7 @@ def predict_many(
 def signatures_many(
     paths: Sequence[str | os.PathLike],
     *,
+    meshes: Sequence | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
@@ -217,6 +223,8 @@ def signatures_many(
     The workers write the cache that this process then reads (``SCRIBBLESEG_CACHE_DIR``, or
     the user's cache folder: on a cluster it must be a shared folder). Meshes that fail are
     counted and listed, not raised: the caller loads them itself and reports the error.
+    `meshes`, when given, are the loaded ``paths`` (the cache is checked on them instead of
+    reading every file again).
     """
     from scribbleseg_core.formats.mesh import load_mesh
     from scribbleseg_core.signatures.features import cached_face_features
@@ -224,9 +232,9 @@ def signatures_many(
     t0 = time.perf_counter()
     summary = BatchSummary()
     todo = []
-    for p in paths:
+    for i, p in enumerate(paths):
         try:
-            mesh = load_mesh(p)
+            mesh = meshes[i] if meshes is not None else load_mesh(p)
         except ScribblesegError:
             todo.append(os.fspath(p))  # the task records the error
             continue

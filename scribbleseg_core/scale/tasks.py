@@ -8,6 +8,7 @@ result the driver records, and the job goes on.
 from __future__ import annotations
 
 import os
+import resource
 import time
 import traceback
 from pathlib import Path
@@ -16,6 +17,11 @@ from scribbleseg_core.errors import ScribblesegError
 
 #: Models read in this process, by (folder, job fingerprint).
 _MODELS: dict[tuple[str, str], object] = {}
+
+
+def peak_memory_mb() -> float:
+    """Peak resident memory of this process, MB."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 def worker_model(folder: str, job: str):
@@ -36,7 +42,8 @@ def predict_task(model_folder: str, job: str, source: str, key: str, out: str, f
     Returns
     -------
     dict
-        ``{"key", "outputs": [paths relative to out], "faces", "seconds"}``, or
+        ``{"key", "outputs": [paths relative to out], "faces", "seconds", "peak_mb"}`` (the
+        worker process's peak resident memory so far), or
         ``{"key", "error": message}`` when the mesh cannot be read or processed.
     """
     t0 = time.perf_counter()
@@ -55,7 +62,7 @@ def predict_task(model_folder: str, job: str, source: str, key: str, out: str, f
                                       LabelSet.from_names(model.label_names), formats=formats)
         outputs = [p.relative_to(out).as_posix() for p in written]
         return {"key": key, "outputs": outputs, "faces": int(mesh.num_file_faces),
-                "seconds": time.perf_counter() - t0}
+                "seconds": time.perf_counter() - t0, "peak_mb": peak_memory_mb()}
     except ScribblesegError as e:
         message = str(e) if e.path else f"{source}: {e}"
         return {"key": key, "error": message}
