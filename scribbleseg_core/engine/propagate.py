@@ -22,6 +22,8 @@ from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph, pair_
 
 #: Alpha-expansion sweeps at most per cut (each sweep tries every label once).
 MAX_SWEEPS = 4
+#: The smallest factor the SDF contrast applies to an edge's smoothness.
+CONTRAST_FLOOR = 0.5
 
 
 @dataclass(frozen=True)
@@ -52,10 +54,8 @@ class PropagateParams:
         Weight of the network's −log-probabilities, when given. Default 0.5.
     contrast : float
         How strongly a jump of the shape diameter between neighbours cheapens the
-        smoothness (a limb meeting a torso with no crease); 0 turns it off, and it acts only
-        when the caller passes the SDF. Default 1.
-    contrast_floor : float
-        The smallest factor the contrast may apply. Default 0.5.
+        smoothness (a limb meeting a torso with no crease), down to :data:`CONTRAST_FLOOR`
+        of it; 0 turns it off, and it acts only when the caller passes the SDF. Default 1.
     walk : float
         Weight of the random-walker term (Grady 2006; Lai et al. 2008 on meshes): the
         chance that a walk from a face, crossing concave creases rarely, first reaches a
@@ -73,7 +73,6 @@ class PropagateParams:
     crease: float = 0.03
     network: float = 0.5
     contrast: float = 1.0
-    contrast_floor: float = 0.5
     walk: float = 1.0
     convex: float = 0.02
 
@@ -136,7 +135,7 @@ class FaceEnergy:
         smoothness = params.smoothness if self.strokes.size else params.smoothness_unscribbled
         w = graph.crease_potts_weights(smoothness, params.crease, params.convex)
         if params.contrast > 0 and sdf is not None:
-            w = w * contrast_factor(graph, sdf, params.contrast, params.contrast_floor)
+            w = w * contrast_factor(graph, sdf, params.contrast, CONTRAST_FLOOR)
         self.weights = w
         self._walk = None
         m = graph.num_faces

@@ -88,7 +88,7 @@ def test_contrast_moves_a_crease_free_boundary_to_where_the_sdf_jumps():
     plain = propagate_scribbles(graph, scribble, 2, sdf=sdf, params=PropagateParams(contrast=0.0))
     between = (x > 13) & (x < 19)
     assert (plain[between] == 0).all()  # the boundary sits midway between the strokes
-    labels = propagate_scribbles(graph, scribble, 2, sdf=sdf, params=PropagateParams(contrast=1.0, contrast_floor=0.1))
+    labels = propagate_scribbles(graph, scribble, 2, sdf=sdf, params=PropagateParams(contrast=1.0))
     assert (labels[between] == 1).all() and (labels[x < 11] == 0).all()
     with pytest.raises(ValueError, match="shape"):
         propagate_scribbles(graph, scribble, 2, sdf=sdf[:-1], params=PropagateParams(contrast=1.0))
