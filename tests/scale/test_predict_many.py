@@ -138,3 +138,24 @@ def test_inputs_lists_folders_and_clashes(tmp_path):
     # the output folder inside an input folder is never read back as input
     write_off(tmp_path / "x" / "out" / "9.ply", mesh.V, mesh.F)
     assert [s.key for s in gather_sources([tmp_path / "x"], exclude=tmp_path / "x" / "out")] == ["1"]
+
+
+def test_signatures_are_computed_once_on_the_cluster(tmp_path, monkeypatch):
+    from scribbleseg_core.scale.run import signatures_many
+    from scribbleseg_core.signatures.features import cached_face_features
+
+    monkeypatch.setenv("SCRIBBLESEG_CACHE_DIR", str(tmp_path / "cache"))  # the workers inherit it
+    paths = []
+    for i in range(3):
+        mesh, _ = creature(1.2 + 0.2 * i, 0.8, seed=10 + i)
+        write_off(tmp_path / f"{i}.off", mesh.V, mesh.F)
+        paths.append(tmp_path / f"{i}.off")
+    (tmp_path / "bad.off").write_text("OFF\n3 1 0\n")
+    summary = signatures_many([*paths, tmp_path / "bad.off"], workers=2)
+    assert (summary.done, summary.skipped, summary.failed) == (3, 0, 1)
+    assert summary.errors[0]["message"].startswith(str(tmp_path / "bad.off"))
+    for p in paths:  # this process now reads what the workers wrote
+        mesh = load_mesh(p)
+        assert cached_face_features(mesh.V, mesh.F, compute=False) is not None
+    again = signatures_many(paths, workers=2)
+    assert (again.done, again.skipped) == (0, 3)
