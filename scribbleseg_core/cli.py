@@ -79,6 +79,44 @@ def _signature_pass(paths, args, meshes=None) -> None:
         print(f"signatures of {summary.done} shapes in {summary.seconds:.1f} s", file=sys.stderr)
 
 
+def _read_full_labels(folder: Path, paths, meshes, scribbles: list, names: list) -> None:
+    """Replace the scribbles of every mesh with a ``folder/<stem>.seg`` by its full labels (in
+    place), the ids naming ``folder/label_names.txt`` when present (new names appended to
+    `names`), else `names` itself."""
+    import numpy as np
+
+    from scribbleseg_core.evaluation.psb import read_label_names
+    from scribbleseg_core.formats.seg import read_seg
+
+    if not folder.is_dir():
+        raise ScribblesegError("not a folder (--labels expects a folder of <mesh name>.seg files)", folder)
+    listed = folder / "label_names.txt"
+    if listed.is_file():
+        try:
+            seg_names = read_label_names(listed)
+        except ValueError:
+            raise ScribblesegError("expected '<id> <name>' on every line", listed) from None
+        names += [n for n in seg_names if n not in names]
+        remap = np.array([names.index(n) for n in seg_names], dtype=np.int64)
+    elif names:
+        remap = np.arange(len(names))
+    else:
+        raise ScribblesegError("no label_names.txt here and no scribble files to name the labels", folder)
+    found = 0
+    for i, path in enumerate(paths):
+        f = folder / f"{path.stem}.seg"
+        if not f.is_file():
+            continue
+        labels = read_seg(f, meshes[i].num_file_faces)
+        if labels.size and (labels.min() < -1 or labels.max() >= len(remap)):
+            raise ScribblesegError(f"label ids span [{labels.min()}, {labels.max()}]; only 0 to {len(remap) - 1} "
+                                   "have names (-1: unlabeled)", f)
+        scribbles[i] = np.where(labels >= 0, remap[np.maximum(labels, 0)], -1)
+        found += 1
+    if not found:
+        raise ScribblesegError(f"no <mesh name>.seg for any mesh of the collection ({len(paths)} meshes)", folder)
+
+
 def _cmd_segment(args) -> int:
     import time
 
@@ -96,7 +134,7 @@ def _cmd_segment(args) -> int:
     t0 = time.perf_counter()
     out = _output_folder(args.out)
     coll = find_collection(args.folder)
-    if not coll.scribbles:
+    if not coll.scribbles and not args.labels:
         raise ScribblesegError(f"no scribble files in {args.folder} or its scribbles/ folder")
     meshes = []
     for path in coll.meshes:
@@ -107,11 +145,14 @@ def _cmd_segment(args) -> int:
                                    f"the mesh has {mesh.num_file_faces}")
         meshes.append(mesh)
     scribbles = [coll.face_labels(path) for path in coll.meshes]
+    label_names = list(coll.label_names)
+    if args.labels:
+        _read_full_labels(Path(args.labels), coll.meshes, meshes, scribbles, label_names)
     _signature_pass(coll.meshes, args, meshes)
     params = SegmentParams(method=args.method)
     bar = None if args.quiet else _bar(len(meshes), "features")
     last, predicted = None, 0
-    for msg in collection_run(meshes, scribbles, coll.label_names, params, num_patches=args.patches):
+    for msg in collection_run(meshes, scribbles, label_names, params, num_patches=args.patches):
         if isinstance(msg, FeaturesDone):
             if bar is not None:
                 bar.update(1)
@@ -125,10 +166,10 @@ def _cmd_segment(args) -> int:
                       f"(scribbles {e.scribble:.1f}, network {e.network:.1f}, smoothness {e.smoothness:.1f}) "
                       f"{snap.seconds:.1f} s", file=sys.stderr)
         elif isinstance(msg, Predicted):
-            _write_file_labels(out, meshes[msg.index], msg.file_labels, coll.label_names)
+            _write_file_labels(out, meshes[msg.index], msg.file_labels, label_names)
             predicted += 1
     for i, labels in zip(last.indices, last.file_labels):
-        _write_file_labels(out, meshes[i], labels, coll.label_names)
+        _write_file_labels(out, meshes[i], labels, label_names)
     save_model(out / "model", last.snapshot.model)
     if not args.quiet:
         painted = sum(s is not None for s in scribbles)
@@ -259,6 +300,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--patches", type=int, default=50, help="primitive patches per shape (default 50)")
     p.add_argument("--method", choices=METHODS, default="face",
                    help="face: the alternation on faces (default); paper: the paper's patch-level alternation")
+    p.add_argument("--labels", metavar="FOLDER",
+                   help="fully labeled shapes: FOLDER/<mesh name>.seg (a label id per face, -1 unlabeled), ids "
+                        "naming FOLDER/label_names.txt ('<id> <name>' lines) or else the scribbles' labels; such "
+                        "a shape trains on every face's label, in place of its scribbles")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     _cluster_options(p, "the signatures")
     p.set_defaults(func=_cmd_segment)

@@ -160,3 +160,37 @@ def test_the_app_without_its_extra_says_what_to_install():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.startswith("error: the app needs its extra (pip install 'scribbleseg[app]')")
+
+
+def test_segment_trains_on_fully_labeled_shapes(tmp_path):
+    """`segment --labels FOLDER`: shapes with a .seg there train on every face's label."""
+    import numpy as np
+
+    from scribbleseg_core.formats.seg import read_seg, write_seg
+    from tests.conftest import write_off
+    from tests.core.planted import LABELS, creature
+
+    data, labels = tmp_path / "data", tmp_path / "labels"
+    labels.mkdir(parents=True)
+    gts = {}
+    for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1)]):
+        mesh, gt = creature(limb, head, seed=i)
+        write_off(data / f"{i + 1}.off", mesh.V, mesh.F)
+        gts[i + 1] = mesh.labels_to_file(gt)
+    for k in (1, 2):  # ids in reverse order, named by label_names.txt
+        write_seg(labels / f"{k}.seg", len(LABELS) - 1 - gts[k])
+    (labels / "label_names.txt").write_text("".join(f"{i} {n}\n" for i, n in enumerate(reversed(LABELS))))
+    env = {"SCRIBBLESEG_CACHE_DIR": str(tmp_path / "cache")}
+    out = tmp_path / "out"
+    r = _run_env(env, "segment", str(data), "--out", str(out), "--labels", str(labels), "--quiet")
+    assert r.returncode == 0, r.stderr
+    for k in (1, 2):  # every face's label is hard
+        np.testing.assert_array_equal(read_seg(out / f"{k}.seg"), len(LABELS) - 1 - gts[k])
+    assert (read_seg(out / "3.seg") == len(LABELS) - 1 - gts[3]).mean() > 0.85
+    # a label file that does not fit its mesh is one line naming it
+    write_seg(labels / "1.seg", np.zeros(5, np.int64))
+    r = _run_env(env, "segment", str(data), "--out", str(out), "--labels", str(labels))
+    assert r.returncode == 2 and "1.seg: holds 5 labels" in r.stderr and "Traceback" not in r.stderr
+    write_seg(labels / "1.seg", np.full(len(gts[1]), 7))
+    r = _run_env(env, "segment", str(data), "--out", str(out), "--labels", str(labels))
+    assert r.returncode == 2 and "only 0 to 2 have names" in r.stderr
