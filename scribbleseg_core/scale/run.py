@@ -15,6 +15,7 @@ import contextlib
 import json
 import logging
 import os
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -101,15 +102,17 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
         return
     n = workers or default_workers()
     # One thread per worker, and the nanny gives each worker OMP/MKL/OpenBLAS one thread too
-    # (distributed.nanny.pre-spawn-environ), which torch_threads() follows.
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
-    client = Client(cluster)
-    try:
-        yield client
-    finally:
-        client.close()
-        cluster.close()
+    # (distributed.nanny.pre-spawn-environ), which torch_threads() follows. The workers' scratch
+    # space is a temporary folder, not a dask-scratch-space/ left in the user's folder.
+    with tempfile.TemporaryDirectory(prefix="scribbleseg-dask-") as scratch:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR, local_directory=scratch)
+        client = Client(cluster)
+        try:
+            yield client
+        finally:
+            client.close()
+            cluster.close()
 
 
 def _run_tasks(client, calls: list[tuple[str, Callable, tuple]], on_result: Callable[[str, dict], None]) -> None:
