@@ -19,6 +19,12 @@ Two variants (:attr:`SegmentParams.method`):
     with eq. 1–4 (:mod:`~scribbleseg_core.engine.energy`) on the patch graph, scribbled
     shapes only.
 
+Additions to the paper in ``"face"``, each measured on its own in ``docs/benchmarks.md``:
+cross-fitted network term (:class:`_Networks`), the random-walker term, the SDF contrast and the
+convex-crease weight of the smoothness (:class:`~scribbleseg_core.engine.propagate.PropagateParams`),
+the multi-scale context and local shape among the network's inputs (:attr:`SegmentParams.context_scales`,
+:attr:`SegmentParams.local_shape`), and shapes without scribbles taking part, smoothed harder.
+
 No GUI code here: the app wraps the generator in a worker thread.
 """
 
