@@ -192,9 +192,11 @@ def predict_many(
         source = by_task[task_key]
         if "error" in result:
             summary.failed += 1
-            message = result["error"]
-            if not message.startswith(os.fspath(source.path)):
-                message = f"{source.path}: {message}"
+            message, given, resolved = result["error"], os.fspath(source.path), os.fspath(source.path.resolve())
+            if message.startswith(resolved):  # the task saw the resolved path; name the file as the user did
+                message = given + message[len(resolved):]
+            elif not message.startswith(given):
+                message = f"{given}: {message}"
             summary.errors.append({"file": os.fspath(source.path), "message": message})
         else:
             manifest.record(source, job, result["outputs"])
