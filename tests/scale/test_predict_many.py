@@ -93,13 +93,15 @@ def test_cluster_matches_the_serial_path_skips_on_rerun_and_records_the_corrupt_
 
 
 def test_a_killed_worker_loses_nothing(job, tmp_path):
-    from distributed import Client, LocalCluster
+    from distributed import LocalCluster
 
     reference = _serial(job)
     sources = [s for s in gather_sources([job / "data"]) if s.path.name != "broken.off"]
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
-            Client(cluster) as client:
-        pids = list(client.run(os.getpid).values())
+    # the test's own cluster, reached through its address as a remote one would be (one client
+    # per process, as in the CLI); its nannies know their worker processes
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        pids = [nanny.pid for nanny in cluster.workers.values()]
+        assert all(pids)
         killed = threading.Event()
 
         def kill_one(done, total):  # after the first shape, while the others are in flight
