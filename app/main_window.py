@@ -179,6 +179,7 @@ class MainWindow(QMainWindow):
         self._features: dict[tuple[int, int], np.ndarray] = {}
         self._features_pending: set[int] = set()
         self._collection_generation = 0
+        self._run_generation = 0
         self._quitting = False  # set once the user chose to quit (skips the unsaved-work question)
         self._last_frame: float | None = None
         self.run_max_frame_gap = 0.0  # longest time between two frames during the last run (s)
@@ -321,6 +322,8 @@ class MainWindow(QMainWindow):
 
     def _on_collection_changed(self) -> None:
         self._collection_generation += 1
+        if self.worker is not None:  # its shapes and labels are the previous collection's
+            self.worker.quit()
         self._features.clear()
         self._features_pending.clear()
         self._preview_generation += 1  # a pending preview belongs to the old collection
@@ -518,7 +521,10 @@ class MainWindow(QMainWindow):
         self.progress.setRange(0, len(indices))
         self.progress.setValue(0)
         self.worker = thread_worker(generator, start_thread=False)(*args)
-        self.worker.yielded.connect(self._on_run_message)
+        # a message from a run of another collection (opened since) is dropped, not applied to this one
+        generation = self._run_generation = self._collection_generation
+        self.worker.yielded.connect(
+            lambda msg: self._on_run_message(msg) if generation == self._collection_generation else None)
         self.worker.errored.connect(lambda e: self._on_error(f"{what} failed: {e}"))
         self.worker.finished.connect(self._on_run_finished)
         self._set_running(True)
@@ -564,6 +570,9 @@ class MainWindow(QMainWindow):
         self._set_running(False)
         self.worker = None
         self.run_seconds = time.perf_counter() - self._run_started
+        if self._run_generation != self._collection_generation:
+            self.statusBar().showMessage("the run was stopped: another collection was opened")
+            return
         self.statusBar().showMessage(
             f"finished in {self.run_seconds:.1f} s (longest frame gap {self.run_max_frame_gap * 1000:.0f} ms)"
         )

@@ -291,3 +291,22 @@ def test_quitting_with_unsaved_work_offers_to_save_a_session(qtbot, viewport, tm
     assert not w.isVisible() and not w.model.unsaved
     saved = load_session(tmp_path / "session")
     np.testing.assert_array_equal(saved.shapes[1].scribble[:25], 2)
+
+
+def test_a_run_never_writes_into_a_collection_opened_after_it(qtbot, viewport, tmp_path, monkeypatch):
+    from pathlib import Path
+
+    from scribbleseg_app.main_window import MainWindow
+
+    monkeypatch.setenv("SCRIBBLESEG_CACHE_DIR", str(tmp_path / "cache"))
+    w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")  # the demo creatures
+    qtbot.addWidget(w)
+    w.show()
+    w.run_button.click()
+    qtbot.waitUntil(lambda: w.progress.value() >= 1, timeout=60_000)  # the run is under way
+    w.model.open(Path(__file__).resolve().parents[2] / "assets" / "Chair")
+    qtbot.waitUntil(lambda: w.worker is None, timeout=120_000)
+    assert all(e.state in ("untouched", "scribbled") for e in w.model.shapes)
+    assert w.model.trained_model is None
+    assert "stopped: another collection was opened" in w.statusBar().currentMessage()
+    assert w.run_button.isEnabled()
