@@ -9,6 +9,8 @@ from functools import cache
 
 import numpy as np
 
+from scribbleseg_core.infra.cpu import usable_cores
+
 #: Faces per optimizer step (fewer when an epoch holds under 8 such batches, so small
 #: collections still take 8 steps an epoch); AdamW's peak learning rate (one-cycle
 #: schedule) and weight decay.
@@ -108,12 +110,9 @@ class _EpochSampler:
 
 
 def torch_threads() -> int:
-    """Threads for torch: the cores this process may use (its CPU affinity), at most
+    """Threads for torch: the cores this process may use (:func:`usable_cores`), at most
     ``OMP_NUM_THREADS`` where that is set (as Dask's nanny sets it to 1 for each worker)."""
-    try:
-        cores = max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not on Linux
-        cores = max(1, os.cpu_count() or 1)
+    cores = usable_cores()
     try:
         return max(1, min(cores, int(os.environ["OMP_NUM_THREADS"])))
     except (KeyError, ValueError):

@@ -23,6 +23,7 @@ from pathlib import Path
 
 from scribbleseg_core.errors import ScribblesegError
 from scribbleseg_core.infra.atomic import atomic_write_text
+from scribbleseg_core.infra.cpu import usable_cores
 from scribbleseg_core.scale.inputs import Source
 from scribbleseg_core.scale.manifest import Manifest, job_fingerprint
 from scribbleseg_core.scale.tasks import predict_task, signature_task
@@ -73,19 +74,11 @@ class BatchSummary:
         return head + "\n" + row
 
 
-def default_workers() -> int:
-    """Worker processes for a local cluster: the cores this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:
-        return max(1, os.cpu_count() or 1)
-
-
 @contextlib.contextmanager
 def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator:
     """A ``distributed.Client``: on the cluster at `scheduler`, or on a new ``LocalCluster``
-    of `workers` processes (default :func:`default_workers`) with one thread each; a local
-    cluster is closed on exit."""
+    of `workers` processes (default: one per core this process may use) with one thread
+    each; a local cluster is closed on exit."""
     try:
         from distributed import Client, LocalCluster
     except ImportError:  # pragma: no cover - a dependency
@@ -100,7 +93,7 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
         finally:
             client.close()
         return
-    n = workers or default_workers()
+    n = workers or usable_cores()
     # One thread per worker, and the nanny gives each worker OMP/MKL/OpenBLAS one thread too
     # (distributed.nanny.pre-spawn-environ), which torch_threads() follows. The workers' scratch
     # space is a temporary folder, not a dask-scratch-space/ left in the user's folder.

@@ -63,15 +63,8 @@ def predict_task(model_folder: str, job: str, source: str, key: str, out: str, f
         outputs = [p.relative_to(out).as_posix() for p in written]
         return {"key": key, "outputs": outputs, "faces": int(mesh.num_file_faces),
                 "seconds": time.perf_counter() - t0, "peak_mb": peak_memory_mb()}
-    except ScribblesegError as e:
-        message = str(e) if e.path else f"{source}: {e}"
-        return {"key": key, "error": message}
-    except MemoryError:
-        return {"key": key, "error": f"{source}: out of memory"}
     except Exception as e:  # noqa: BLE001 - a bug on one mesh must not end a job of thousands
-        last = traceback.extract_tb(e.__traceback__)[-1]
-        return {"key": key, "error": f"{source}: {type(e).__name__}: {e} "
-                                     f"({os.path.basename(last.filename)}:{last.lineno})"}
+        return {"key": key, "error": _failure(source, e)}
 
 
 def signature_task(source: str) -> dict:
@@ -90,7 +83,16 @@ def signature_task(source: str) -> dict:
         mesh = load_mesh(source)
         cached_face_features(mesh.V, mesh.F)
         return {"source": source, "faces": int(mesh.num_file_faces), "seconds": time.perf_counter() - t0}
-    except ScribblesegError as e:
-        return {"source": source, "error": str(e) if e.path else f"{source}: {e}"}
     except Exception as e:  # noqa: BLE001
-        return {"source": source, "error": f"{source}: {type(e).__name__}: {e}"}
+        return {"source": source, "error": _failure(source, e)}
+
+
+def _failure(source: str, e: Exception) -> str:
+    """One line naming `source` and what went wrong: a bad input's own message, or the
+    exception and where it was raised."""
+    if isinstance(e, ScribblesegError):
+        return str(e) if e.path else f"{source}: {e}"
+    if isinstance(e, MemoryError):
+        return f"{source}: out of memory"
+    last = traceback.extract_tb(e.__traceback__)[-1]
+    return f"{source}: {type(e).__name__}: {e} ({os.path.basename(last.filename)}:{last.lineno})"
