@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from scribbleseg_core.engine.propagate import PropagateParams, propagate_scribbles
+from scribbleseg_core.engine.shape import ShapeData
 from scribbleseg_core.formats.mesh import Mesh
 from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
 
@@ -62,7 +63,7 @@ class PreviewEngine:
 
     def __init__(self) -> None:
         self._graphs: dict[int, tuple[Mesh, DualGraph]] = {}
-        self._inputs: dict[tuple[int, tuple], np.ndarray] = {}
+        self._shapes: dict[int, ShapeData] = {}  # with their network inputs and geodesics
         self._sdf: dict[int, tuple[Mesh, np.ndarray]] = {}
 
     def graph(self, mesh: Mesh) -> DualGraph:
@@ -74,18 +75,15 @@ class PreviewEngine:
     def log_proba(self, mesh: Mesh, model) -> np.ndarray:
         """The model's face log-probabilities; features and context come from the disk
         caches a run filled (computed there on first use)."""
-        from scribbleseg_core.engine.shape import network_input
         from scribbleseg_core.geometry.measures import face_areas
         from scribbleseg_core.signatures.features import cached_face_features
 
-        scales, local = tuple(model.params.context_scales), model.params.local_shape
-        key = (id(mesh), scales, local)
-        if key not in self._inputs:  # the same input, and disk cache, as the run's
+        key = id(mesh)
+        if key not in self._shapes or self._shapes[key].mesh is not mesh:  # the run's inputs and disk caches
             X = cached_face_features(mesh.V, mesh.F)
-            V, F = mesh.normalized(), mesh.F
-            self._inputs[key] = network_input(X, face_areas(V, F), self.graph(mesh), scales,
-                                              local_shape_of=(V, F) if local else None)
-        return model.classifier.log_proba(self._inputs[key])
+            scribble = np.full(len(mesh.F), -1, np.int64)
+            self._shapes[key] = ShapeData(mesh, X, face_areas(mesh.normalized(), mesh.F), self.graph(mesh), scribble)
+        return model.log_proba(self._shapes[key])
 
     def compute(self, req: PreviewRequest) -> np.ndarray | None:
         """(m0,) file-face labels, or None when the shape has no scribbles."""

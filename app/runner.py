@@ -64,5 +64,4 @@ def collection_run(
 
 def predict_run(model, meshes: Sequence[Mesh]) -> Iterator[FeaturesDone | Predicted]:
     """:func:`scribbleseg_core.engine.pipeline.predict_run` on one torch thread (see above)."""
-    model.classifier.params = replace(model.classifier.params, threads=1)
-    yield from _predict_run(model, meshes)
+    yield from _predict_run(replace(model, learner=model.learner.with_threads(1)), meshes)

@@ -238,7 +238,7 @@ def _bench_params(args):
     return replace(base, network=replace(base.network, threads=args.threads, **given(seed=args.network_seed)),
                    propagation=replace(base.propagation, **given(contrast=args.contrast, walk=args.walk,
                                                                  convex=args.convex)),
-                   **given(local_shape=args.local_shape, rounds=args.rounds))
+                   **given(local_shape=args.local_shape, label_context=args.label_context, rounds=args.rounds))
 
 
 def _cmd_bench_merge(args) -> int:
@@ -358,6 +358,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--local-shape", action=argparse.BooleanOptionalAction, default=None,
                    help="the local extrinsic shape around each face among the network's inputs "
                         "(default SegmentParams.local_shape; --no-local-shape: the signatures and their context only)")
+    p.add_argument("--label-context", action=argparse.BooleanOptionalAction, default=None,
+                   help="the learner's second stage, which reads where the first stage puts each label around "
+                        "the face (default SegmentParams.label_context)")
     p.add_argument("--out", required=True)
     p.add_argument("--quiet", action="store_true")
     _cluster_options(p, "the signatures")

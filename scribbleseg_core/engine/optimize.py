@@ -23,7 +23,9 @@ Additions to the paper in ``"face"``, each measured on its own in ``docs/benchma
 cross-fitted network term (:class:`_Networks`), the random-walker term, the SDF contrast and the
 convex-crease weight of the smoothness (:class:`~scribbleseg_core.engine.propagate.PropagateParams`),
 the multi-scale context and local shape among the network's inputs (:attr:`SegmentParams.context_scales`,
-:attr:`SegmentParams.local_shape`), and shapes without scribbles taking part, smoothed harder.
+:attr:`SegmentParams.local_shape`), the label-context stage of the learner
+(:attr:`SegmentParams.label_context`, :mod:`~scribbleseg_core.engine.learner`), and shapes
+without scribbles taking part, smoothed harder.
 
 No GUI code here: the app wraps the generator in a worker thread.
 """
@@ -46,6 +48,7 @@ from scribbleseg_core.engine.energy import (
     scribble_unary,
 )
 from scribbleseg_core.engine.graphcut import alpha_expansion
+from scribbleseg_core.engine.learner import Learner, context_input
 from scribbleseg_core.engine.network import FaceClassifier, NetworkParams
 from scribbleseg_core.engine.patch_features import PatchEncoder, feature_delta, fit_patch_encoder
 from scribbleseg_core.engine.propagate import FaceEnergy, PropagateParams
@@ -83,6 +86,11 @@ class SegmentParams:
         The network also reads the local extrinsic shape at each context scale
         (:func:`~scribbleseg_core.signatures.context.local_shape`; 5 values a scale).
         Default True.
+    label_context : bool
+        ``"face"`` only: the learner has a second stage that also reads, for every label,
+        how far the faces the first stage gives that label lie from the face
+        (:mod:`~scribbleseg_core.engine.learner`); it trains one more network a round.
+        Default True.
     cross_fit : float
         ``"face"`` only: the share of held-out networks in a scribbled shape's network term,
         ``log((1 − a) P_all + a P_half)``: its probabilities also come from a network trained
@@ -101,6 +109,7 @@ class SegmentParams:
     lam: float = 1.0
     context_scales: tuple[float, ...] = DEFAULT_SCALES
     local_shape: bool = True
+    label_context: bool = True
     cross_fit: float = 0.7
     network: NetworkParams = field(default_factory=NetworkParams)
     propagation: PropagateParams = field(default_factory=PropagateParams)
@@ -122,6 +131,11 @@ class SegmentParams:
         local shape): :meth:`ShapeData.network_input`, (m, d) float64."""
         return shape.network_input(self.context_scales, self.local_shape)
 
+    @property
+    def uses_label_context(self) -> bool:
+        """Whether the learner has its label-context stage (``"face"`` with :attr:`label_context`)."""
+        return self.method == "face" and self.label_context
+
 
 @dataclass(frozen=True, eq=False)
 class TrainedModel:
@@ -129,7 +143,7 @@ class TrainedModel:
 
     Attributes
     ----------
-    classifier : FaceClassifier
+    learner : Learner
     label_names : tuple of str
     params : SegmentParams
     encoder : PatchEncoder or None
@@ -138,11 +152,18 @@ class TrainedModel:
         ``"paper"`` only: δ of the feature term.
     """
 
-    classifier: FaceClassifier
+    learner: Learner
     label_names: tuple[str, ...]
     params: SegmentParams
     encoder: PatchEncoder | None = None
     delta: float | None = None
+
+    def log_proba(self, shape: ShapeData) -> np.ndarray:
+        """The learner's log label probabilities for the faces of `shape`, (m, k) float64."""
+        x = self.params.network_input(shape)
+        if self.learner.stage2 is None:
+            return self.learner.log_proba(x)
+        return self.learner.log_proba(x, shape.geodesic, shape.area)
 
 
 @dataclass(frozen=True, eq=False)
@@ -229,8 +250,9 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
     inputs = [params.network_input(s) if problem.trains_on(i) else None for i, s in enumerate(problem.shapes)]
     d = next(x.shape[1] for x in inputs if x is not None)
     share = params.cross_fit if params.method == "face" else 0.0
-    net = _Networks(d, len(problem.label_names), params.network, share,
-                    [s.is_scribbled for s in problem.shapes])
+    shapes = problem.shapes
+    context_of = (lambda i: (shapes[i].geodesic, shapes[i].area)) if params.uses_label_context else None
+    net = _Networks(d, len(problem.label_names), params.network, share, [s.is_scribbled for s in shapes], context_of)
     model, logp, best, it = None, None, np.inf, 0
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
@@ -260,32 +282,66 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
 
 
 class _Networks:
-    """The network term of the energy: the network trained on every labeled shape (the
-    model) and, with cross-fitting (``share > 0``), two networks each trained on one half of
-    the shapes; a scribbled shape's probabilities are ``(1 − share) P_all + share P_other
-    half``, so its term is not only the echo of its propagated labels. Shapes without
-    scribbles use the model alone, as a new shape would."""
+    """The learner the alternation trains, and the network term of the energy it gives.
 
-    def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool]):
+    The learner (the model) is trained on every labeled shape. Two more first-stage networks
+    are each trained on one half of the shapes (fold ``i % 2``), so that every shape has
+    probabilities from a network that never saw its labels. They serve
+
+    * cross-fitting (``share > 0``): a scribbled shape's probabilities are
+      ``(1 − share) P_learner + share P_other half``, so its term is not only the echo of its
+      propagated labels (shapes without scribbles use the learner alone, as a new shape would);
+    * the label-context stage (`context_of` given): it is trained on the label distances of
+      these held-out probabilities, as it will meet on new shapes.
+
+    Parameters
+    ----------
+    d, k : int
+        Descriptor length, labels.
+    params : NetworkParams
+    share : float
+    mixed : sequence of bool
+        Per shape: is it scribbled (cross-fitted)?
+    context_of : callable(int) -> (SourceDistances, (m,) ndarray), optional
+        A shape's geodesic sample and face areas; None: no label-context stage.
+    """
+
+    def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool], context_of=None):
         n = len(mixed)
-        self.main = FaceClassifier(d, k, params)
+        self.context_of = context_of
+        stage2 = FaceClassifier(d + 2 * k, k, params) if context_of is not None else None
+        self.main = Learner(FaceClassifier(d, k, params), stage2)
         self.share = share if n >= 2 else 0.0
         self.mixed = list(mixed)
         self.fold_of = np.arange(n) % 2
-        self.halves = [FaceClassifier(d, k, params) for _ in range(2)] if self.share > 0 else []
+        held_out = n >= 2 and (self.share > 0 or context_of is not None)
+        self.halves = [FaceClassifier(d, k, params) for _ in range(2)] if held_out else []
 
     @property
     def trained(self) -> bool:
-        return self.main.trained
+        return self.main.stage1.trained
 
     def fit(self, inputs, labels) -> None:
         """Train on every shape with labels and inputs; warm when trained before."""
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
-        self.main.fit([inputs[i] for i in usable], [labels[i] for i in usable], warm=self.main.trained)
+        first = self.main.stage1
+        first.fit([inputs[i] for i in usable], [labels[i] for i in usable], warm=first.trained)
         for f, half in enumerate(self.halves):
             others = [i for i in usable if self.fold_of[i] != f]
             if others:
                 half.fit([inputs[i] for i in others], [labels[i] for i in others], warm=half.trained)
+        second = self.main.stage2
+        if second is not None:
+            X2 = [context_input(inputs[i], *self.context_of(i), (self._held_out(i) or first).log_proba(inputs[i]))
+                  for i in usable]
+            second.fit(X2, [labels[i] for i in usable], warm=second.trained)
+
+    def _held_out(self, i: int) -> FaceClassifier | None:
+        """The trained first-stage network that did not see shape i's labels, if any."""
+        if not self.halves:
+            return None
+        half = self.halves[self.fold_of[i]]
+        return half if half.trained else None
 
     def log_proba(self, inputs) -> list[np.ndarray | None]:
         out = []
@@ -293,9 +349,10 @@ class _Networks:
             if x is None:
                 out.append(None)
                 continue
-            own = self.main.log_proba(x)
-            half = self.halves[self.fold_of[i]] if self.halves and self.mixed[i] else None
-            if half is None or not half.trained:
+            own = self.main.log_proba(x, *self.context_of(i)) if self.main.stage2 is not None else \
+                self.main.log_proba(x)
+            half = self._held_out(i) if self.share > 0 and self.mixed[i] else None
+            if half is None:
                 out.append(own)
                 continue
             out.append(np.logaddexp(np.log1p(-self.share) + own, np.log(self.share) + half.log_proba(x)))
@@ -327,8 +384,8 @@ class _FaceProblem:
                 total = total + EnergyTerms(*e.terms(lab, None if logp is None else logp[i]))
         return total
 
-    def model(self, clf: FaceClassifier) -> TrainedModel:
-        return TrainedModel(clf, self.label_names, self.params)
+    def model(self, learner: Learner) -> TrainedModel:
+        return TrainedModel(learner, self.label_names, self.params)
 
 
 class _PatchProblem:
@@ -373,8 +430,8 @@ class _PatchProblem:
     def _faces(self) -> list[np.ndarray | None]:
         return [None if y is None else y[s.patch] for y, s in zip(self.y, self.shapes)]
 
-    def model(self, clf: FaceClassifier) -> TrainedModel:
-        return TrainedModel(clf, self.label_names, self.params, self.encoder, self.delta)
+    def model(self, learner: Learner) -> TrainedModel:
+        return TrainedModel(learner, self.label_names, self.params, self.encoder, self.delta)
 
 
 def _frozen(labels, shapes) -> tuple[np.ndarray, ...]:

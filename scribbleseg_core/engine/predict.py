@@ -26,7 +26,7 @@ def predict_shape(model: TrainedModel, shape: ShapeData) -> np.ndarray:
     """
     k = len(model.label_names)
     params = model.params
-    logp = model.classifier.log_proba(params.network_input(shape))
+    logp = model.log_proba(shape)
     if params.method == "face":
         return FaceEnergy(shape.graph, shape.scribble, k, params.propagation, shape.sdf).cut(logp)
     D = model.encoder.encode(shape.X, shape.area, shape.patch)

@@ -14,6 +14,7 @@ from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.infra.cache import ArrayCache, hash_arrays
 from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
 from scribbleseg_core.signatures.features import NUM_FEATURES, SDF_COLUMN, FeatureParams, cached_face_features
+from scribbleseg_core.signatures.geodesic import SourceDistances, cached_source_distances
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,6 +42,7 @@ class ShapeData:
     scribble: np.ndarray
     target_patches: int = 50
     context_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
+    geodesic_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -69,6 +71,15 @@ class ShapeData:
             self._cache[key] = network_input(self.X, self.area, self.graph, context_scales, local_shape_of=mesh,
                                              cache=self.context_cache)
         return self._cache[key]
+
+    @property
+    def geodesic(self) -> SourceDistances:
+        """Geodesic distances from each face to a sample of the surface (cached on disk;
+        :func:`~scribbleseg_core.signatures.geodesic.cached_source_distances`)."""
+        if "geodesic" not in self._cache:
+            self._cache["geodesic"] = cached_source_distances(self.mesh.normalized(), self.mesh.F,
+                                                              self.geodesic_cache)
+        return self._cache["geodesic"]
 
     @property
     def sdf(self) -> np.ndarray:
@@ -186,6 +197,7 @@ def prepare_shape(
         # a repaired face is scribbled if its own file face was
         scribble = np.asarray(file_scribble, dtype=np.int64)[mesh.proc_to_file]
     graph = dual_graph(V, F)
-    # the context cache sits beside a given feature cache (else the user cache's)
-    context_cache = None if cache is None else ArrayCache(cache.folder.parent / f"{cache.folder.name}-context")
-    return ShapeData(mesh, X, face_areas(V, F), graph, scribble, num_patches, context_cache)
+    # the context and geodesic caches sit beside a given feature cache (else the user cache's)
+    beside = (lambda kind: None) if cache is None else (
+        lambda kind: ArrayCache(cache.folder.parent / f"{cache.folder.name}-{kind}"))
+    return ShapeData(mesh, X, face_areas(V, F), graph, scribble, num_patches, beside("context"), beside("geodesic"))

@@ -224,6 +224,7 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
                            "seed": seed, "labels": labels, "method": params.method, "rounds": params.rounds,
                            "context_scales": list(params.context_scales),
                            "local_shape": params.local_shape,
+                           "label_context": params.label_context,
                            "propagation": asdict(params.propagation),
                            "network": {k: v for k, v in asdict(params.network).items() if k != "threads"}},
               "categories": {}}

@@ -216,7 +216,7 @@ def signatures_many(
     scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> BatchSummary:
-    """Compute the signatures of meshes not yet in the signature cache, in parallel.
+    """Compute the signatures and geodesic samples of meshes not yet in their caches, in parallel.
 
     The workers write the cache that this process then reads (``SCRIBBLESEG_CACHE_DIR``, or
     the user's cache folder: on a cluster it must be a shared folder). Meshes that fail are
@@ -226,6 +226,7 @@ def signatures_many(
     """
     from scribbleseg_core.formats.mesh import load_mesh
     from scribbleseg_core.signatures.features import cached_face_features
+    from scribbleseg_core.signatures.geodesic import cached_source_distances
 
     t0 = time.perf_counter()
     summary = BatchSummary()
@@ -236,7 +237,8 @@ def signatures_many(
         except ScribblesegError:
             todo.append(os.fspath(p))  # the task records the error
             continue
-        if cached_face_features(mesh.V, mesh.F, compute=False) is None:
+        if (cached_face_features(mesh.V, mesh.F, compute=False) is None
+                or cached_source_distances(mesh.normalized(), mesh.F, compute=False) is None):
             todo.append(os.fspath(Path(p).resolve()))
         else:
             summary.skipped += 1

@@ -68,7 +68,8 @@ def predict_task(model_folder: str, job: str, source: str, key: str, out: str, f
 
 
 def signature_task(source: str) -> dict:
-    """Compute the signatures of one mesh into the signature cache (shared with the client).
+    """Compute the signatures and the geodesic sample of one mesh into their caches (shared
+    with the client).
 
     Returns
     -------
@@ -79,9 +80,11 @@ def signature_task(source: str) -> dict:
     try:
         from scribbleseg_core.formats.mesh import load_mesh
         from scribbleseg_core.signatures.features import cached_face_features
+        from scribbleseg_core.signatures.geodesic import cached_source_distances
 
         mesh = load_mesh(source)
         cached_face_features(mesh.V, mesh.F)
+        cached_source_distances(mesh.normalized(), mesh.F)  # the learner's label context reads them
         return {"source": source, "faces": int(mesh.num_file_faces), "seconds": time.perf_counter() - t0}
     except Exception as e:  # noqa: BLE001
         return {"source": source, "error": _failure(source, e)}

@@ -6,12 +6,14 @@ A model folder holds three files:
     The schema, version :data:`VERSION`::
 
         format          "scribbleseg-model"
-        version         3
+        version         4
         scribbleseg     the package version that wrote it (informational)
         feature_version the per-face signatures' definition it was trained on
         label_names     k names
-        network         {"num_inputs", "hidden", "dropout"}: the classifier's architecture
-        inputs          {"context_scales", "local_shape"}: what the classifier reads per face
+        network         {"num_inputs", "hidden", "dropout"}: the first stage's architecture
+        inputs          {"context_scales", "local_shape"}: what the first stage reads per face
+        label_context   true when the learner has its second stage (same widths; it reads
+                        num_inputs + 2k values per face)
         prediction      {"method", "propagation", "lam"}: the energy of the graph cut on new
                         shapes (and of the app's preview)
         patches         {"bins", "smooth", "delta"}, method "paper" only (else null): the
@@ -19,10 +21,12 @@ A model folder holds three files:
 
     Nothing else is read: training-only settings are not stored.
 ``weights.pt``
-    The classifier's torch state dict, read with ``weights_only=True``.
+    ``{"stage1": state dict, "stage2": state dict}`` (stage 2 only with label context), torch
+    tensors read with ``weights_only=True``.
 ``arrays.npz``
-    Input standardization (``mean``, ``std``) and, method "paper" only, the patch encoder's
-    ranges and codebook; read with ``allow_pickle=False``.
+    Input standardization of each stage (``mean``, ``std``; ``context_mean``,
+    ``context_std``) and, method "paper" only, the patch encoder's ranges and codebook; read
+    with ``allow_pickle=False``.
 
 Any change to what prediction needs bumps :data:`VERSION`; files of another version are
 refused with both versions named (retrain to get a current file).
@@ -39,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from scribbleseg_core import __version__
+from scribbleseg_core.engine.learner import Learner
 from scribbleseg_core.engine.network import FaceClassifier, NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams, TrainedModel
 from scribbleseg_core.engine.patch_features import PatchEncoder
@@ -50,7 +55,7 @@ from scribbleseg_core.signatures.features import FEATURE_VERSION
 
 FORMAT = "scribbleseg-model"
 #: The schema version this scribbleseg writes and reads.
-VERSION = 3
+VERSION = 4
 
 
 def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
@@ -58,13 +63,18 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
     import torch
 
     folder = Path(folder)
-    clf, enc, p = model.classifier, model.encoder, model.params
+    clf, second, enc, p = model.learner.stage1, model.learner.stage2, model.encoder, model.params
     buf = io.BytesIO()
-    torch.save(clf.net.state_dict(), buf)
+    states = {"stage1": clf.net.state_dict()}
+    extra = {}
+    if second is not None:
+        states["stage2"] = second.net.state_dict()
+        extra = dict(context_mean=second.mean, context_std=second.std)
+    torch.save(states, buf)
     arrays = io.BytesIO()
     encoder = {} if enc is None else dict(lo=enc.lo, hi=enc.hi, hks_mean=enc.hks_mean, hks_std=enc.hks_std,
                                           codebook=enc.codebook)
-    np.savez(arrays, mean=clf.mean, std=clf.std, **encoder)
+    np.savez(arrays, mean=clf.mean, std=clf.std, **extra, **encoder)
     meta = {
         "format": FORMAT,
         "version": VERSION,
@@ -73,6 +83,7 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
         "label_names": list(model.label_names),
         "network": {"num_inputs": clf.num_inputs, "hidden": list(clf.params.hidden), "dropout": clf.params.dropout},
         "inputs": {"context_scales": list(p.context_scales), "local_shape": p.local_shape},
+        "label_context": second is not None,
         "prediction": {"method": p.method, "propagation": dataclasses.asdict(p.propagation), "lam": p.lam},
         "patches": None if enc is None else {"bins": enc.bins, "smooth": enc.smooth, "delta": model.delta},
     }
@@ -118,6 +129,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
             lam=float(pred["lam"]),
             context_scales=tuple(float(t) for t in inputs["context_scales"]),
             local_shape=bool(inputs["local_shape"]),
+            label_context=_flag(meta["label_context"]),
             network=network,
             propagation=PropagateParams(**pred["propagation"]),
         )
@@ -130,7 +142,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     except ValueError as e:
         raise ModelFileError(f"model.json does not fit model format {VERSION} ({e})"[:300], folder) from None
     try:
-        clf, arr = _read_arrays(folder, num_inputs, len(names), network)
+        learner, arr = _read_arrays(folder, num_inputs, len(names), network, params.label_context)
         encoder = None
         if params.method == "paper":
             encoder = PatchEncoder(arr["lo"], arr["hi"], arr["hks_mean"], arr["hks_std"], arr["codebook"], bins, smooth)
@@ -139,9 +151,10 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     except Exception as e:  # wrong shapes, a pickle, truncated files: all "not a model of ours"
         raise ModelFileError(f"corrupt or foreign model files ({type(e).__name__}: {e})"[:300], folder) from None
     expected = network_input_width(len(params.context_scales), params.local_shape)
+    clf = learner.stage1
     if clf.num_inputs != expected or clf.mean.shape != (expected,):
         raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
-    return TrainedModel(clf, names, params, encoder, delta if encoder is not None else None)
+    return TrainedModel(learner, names, params, encoder, delta if encoder is not None else None)
 
 
 def _read_meta(folder: Path) -> dict:
@@ -172,14 +185,31 @@ def _read_meta(folder: Path) -> dict:
     return meta
 
 
-def _read_arrays(folder: Path, num_inputs: int, k: int, network: NetworkParams) -> tuple[FaceClassifier, dict]:
-    """The classifier (weights, standardization) of `folder`, and every array of ``arrays.npz``."""
+def _flag(value) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f"label_context must be true or false, not {value!r}")
+    return value
+
+
+def _read_arrays(folder: Path, num_inputs: int, k: int, network: NetworkParams,
+                 label_context: bool) -> tuple[Learner, dict]:
+    """The learner (weights, standardization) of `folder`, and every array of ``arrays.npz``."""
     import torch
 
     with np.load(folder / "arrays.npz", allow_pickle=False) as z:
         arr = {key: z[key] for key in z.files}
-    state = torch.load(folder / "weights.pt", map_location="cpu", weights_only=True)
-    clf = FaceClassifier(num_inputs, k, network)
-    clf.net.load_state_dict(state)
-    clf.mean, clf.std, clf.trained = arr["mean"], arr["std"], True
-    return clf, arr
+    states = torch.load(folder / "weights.pt", map_location="cpu", weights_only=True)
+    if not isinstance(states, dict) or set(states) != ({"stage1", "stage2"} if label_context else {"stage1"}):
+        raise ValueError("weights.pt does not hold the stages model.json describes")
+
+    def stage(num, state, mean, std) -> FaceClassifier:
+        clf = FaceClassifier(num, k, network)
+        clf.net.load_state_dict(state)
+        clf.mean, clf.std, clf.trained = arr[mean], arr[std], True
+        if clf.mean.shape != (num,) or clf.std.shape != (num,):
+            raise ValueError(f"standardization of {mean} has shape {clf.mean.shape}, expected ({num},)")
+        return clf
+
+    first = stage(num_inputs, states["stage1"], "mean", "std")
+    second = stage(num_inputs + 2 * k, states["stage2"], "context_mean", "context_std") if label_context else None
+    return Learner(first, second), arr

@@ -74,7 +74,7 @@ def test_each_snapshot_carries_the_energy_of_its_labels(collection):
     k = len(LABELS)
     energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes]
     for snap in snaps[1:-1]:
-        logp = [snap.model.classifier.log_proba(params.network_input(s)) for s in shapes]
+        logp = [snap.model.log_proba(s) for s in shapes]
         terms = [e.terms(lab, lp) for e, lab, lp in zip(energies, snap.labels, logp) if (lab >= 0).any()]
         np.testing.assert_allclose(sum(sum(t) for t in terms), snap.energy.total, rtol=1e-6)
     assert snaps[-1].energy == [s for s in snaps if s.phase == "graphcut"][-1].energy
@@ -97,6 +97,35 @@ def test_cross_fitting_mixes_in_networks_that_never_saw_the_shape(collection):
         np.testing.assert_allclose(np.exp(mixed[i]), expected, rtol=1e-6)
     alone = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [True])  # one shape: none held out
     assert alone.halves == []
+
+
+def test_label_context_stage_learns_from_held_out_probabilities(collection, monkeypatch):
+    """Stage 2 is trained on the label distances of the half networks' probabilities (never
+    of a network that saw the shape), and the model's prediction runs both stages."""
+    from scribbleseg_core.engine import optimize
+    from scribbleseg_core.engine.learner import context_input
+
+    shapes, _, snaps = collection
+    inputs = [PARAMS.network_input(s) for s in shapes]
+    labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
+    k = len(LABELS)
+    seen = []
+    monkeypatch.setattr(optimize, "context_input", lambda x, d, a, lp: seen.append(lp) or context_input(x, d, a, lp))
+    net = optimize._Networks(inputs[0].shape[1], k, PARAMS.network, 0.0, [s.is_scribbled for s in shapes],
+                             lambda i: (shapes[i].geodesic, shapes[i].area))
+    net.fit(inputs, labels)
+    assert len(net.halves) == 2 and net.main.stage2.num_inputs == inputs[0].shape[1] + 2 * k
+    used = [i for i, lab in enumerate(labels) if lab is not None]
+    for i, lp in zip(used, seen):
+        np.testing.assert_allclose(lp, net.halves[net.fold_of[i]].log_proba(inputs[i]))
+    model = snaps[-1].model
+    assert model.learner.stage2 is not None
+    s = shapes[3]
+    first = model.learner.stage1.log_proba(inputs[3])
+    np.testing.assert_allclose(model.log_proba(s),
+                               model.learner.stage2.log_proba(context_input(inputs[3], s.geodesic, s.area, first)))
+    off = dataclasses.replace(PARAMS, label_context=False, rounds=1)
+    assert next(x for x in segment_collection(shapes, LABELS, off) if x.model).model.learner.stage2 is None
 
 
 def test_energy_never_increases_and_the_result_is_the_last_cut(collection, paper):
@@ -183,8 +212,8 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     save_model(tmp_path / "m", model)
     back = load_model(tmp_path / "m", expected_labels=LABELS)
     np.testing.assert_array_equal(predict_shape(back, shapes[3]), predict_shape(model, shapes[3]))
-    x = model.params.network_input(shapes[3])
-    np.testing.assert_allclose(back.classifier.log_proba(x), model.classifier.log_proba(x), atol=1e-6)  # no dropout noise
+    assert back.learner.stage2 is not None and back.params.label_context
+    np.testing.assert_allclose(back.log_proba(shapes[3]), model.log_proba(shapes[3]), atol=1e-6)  # no dropout noise
     with pytest.raises(ModelFileError, match="trained on labels"):
         load_model(tmp_path / "m", expected_labels=("a", "b"))
     import json
@@ -193,8 +222,8 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
 
     meta_path = tmp_path / "m" / "model.json"
     meta = json.loads(meta_path.read_text())
-    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 3"),
-                             (2, "model format version 2, written by scribbleseg .*, older than the version 3")]:
+    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 4"),
+                             (3, "model format version 3, written by scribbleseg .*, older than the version 4")]:
         meta_path.write_text(json.dumps({**meta, "version": version}))
         with pytest.raises(ModelFileError, match=message) as refused:
             load_model(tmp_path / "m")
@@ -209,10 +238,14 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
         load_model(tmp_path / "m")
     # weights that do not fit the inputs the file describes are refused
     s = len(model.params.context_scales)
-    assert model.classifier.num_inputs == NUM_FEATURES * (1 + s) + LOCAL_SHAPE_PER_SCALE * s
+    assert model.learner.stage1.num_inputs == NUM_FEATURES * (1 + s) + LOCAL_SHAPE_PER_SCALE * s
     meta_path.write_text(json.dumps({**meta, "inputs": {**meta["inputs"], "local_shape": False}}))
-    with pytest.raises(ModelFileError, match=f"expects {model.classifier.num_inputs} inputs per face, its parameters "
+    with pytest.raises(ModelFileError, match=f"expects {model.learner.stage1.num_inputs} inputs per face, its parameters "
                                              f"give {NUM_FEATURES * (1 + s)}"):
+        load_model(tmp_path / "m")
+    # a file whose stages disagree with its weights is refused
+    meta_path.write_text(json.dumps({**meta, "label_context": False}))
+    with pytest.raises(ModelFileError, match="does not hold the stages"):
         load_model(tmp_path / "m")
     (tmp_path / "m" / "model.json").write_text(json.dumps(meta))
     # a pickle with code in place of the weights is refused, not executed

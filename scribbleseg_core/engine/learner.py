@@ -1,0 +1,83 @@
+"""The face learner: a classifier of each face from its own descriptor, followed by one that
+also reads where the labels lie around the face (label context, auto-context).
+
+Stage 1 is the paper's network on the face's descriptor. Stage 2 is the same kind of network
+on the descriptor plus :func:`~scribbleseg_core.signatures.geodesic.label_distances` of
+stage 1's probabilities: for every label, how far (geodesically) the surface stage 1 gives
+that label lies from the face. Stage 2 is trained on stage-1 probabilities from networks
+that did not see the shape's labels (held out), so that it learns how far to trust stage 1
+on shapes it has not seen.
+
+References
+----------
+E. Kalogerakis, A. Hertzmann, K. Singh, "Learning 3D mesh segmentation and labeling",
+ACM TOG 29(4), 2010 (contextual label features). Z. Tu, X. Bai, "Auto-context and its
+application to high-level vision tasks and 3D brain image segmentation", IEEE TPAMI 2010.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from scribbleseg_core.engine.network import FaceClassifier
+from scribbleseg_core.signatures.geodesic import SourceDistances, label_distances
+
+
+def context_input(x: np.ndarray, dist: SourceDistances, area: np.ndarray, log_proba: np.ndarray) -> np.ndarray:
+    """Stage 2's input: the face descriptor `x` (m, d), then the label distances (m, 2k) of the
+    probabilities ``exp(log_proba)`` (m, k)."""
+    return np.hstack([x, label_distances(dist, area, np.exp(log_proba))])
+
+
+@dataclass(eq=False)
+class Learner:
+    """The trained face classifier of a model.
+
+    Attributes
+    ----------
+    stage1 : FaceClassifier
+        Reads the face descriptor (d inputs).
+    stage2 : FaceClassifier or None
+        Reads the descriptor and the label distances of stage 1 (d + 2k inputs); None
+        without label context.
+    """
+
+    stage1: FaceClassifier
+    stage2: FaceClassifier | None = None
+
+    @property
+    def num_labels(self) -> int:
+        return self.stage1.num_labels
+
+    def log_proba(self, x: np.ndarray, dist: SourceDistances | None = None, area: np.ndarray | None = None,
+                  ) -> np.ndarray:
+        """Log label probabilities per face, (m, k) float64.
+
+        Parameters
+        ----------
+        x : (m, d) float64 ndarray
+            The face descriptors (:meth:`SegmentParams.network_input`).
+        dist, area : SourceDistances, (m,) float64 ndarray
+            The shape's geodesic sample and face areas; required with a stage 2.
+        """
+        first = self.stage1.log_proba(x)
+        if self.stage2 is None:
+            return first
+        if dist is None or area is None:
+            raise ValueError("this learner has a label-context stage: pass the shape's distances and areas")
+        return self.stage2.log_proba(context_input(x, dist, area, first))
+
+    def with_threads(self, threads: int | None) -> Learner:
+        """This learner predicting on `threads` torch threads (None: the cores this process
+        may use); it shares the weights, and this one is left as it is."""
+        def clf(c: FaceClassifier | None) -> FaceClassifier | None:
+            if c is None:
+                return None
+            out = copy.copy(c)
+            out.params = replace(c.params, threads=threads)
+            return out
+
+        return Learner(clf(self.stage1), clf(self.stage2))
