@@ -23,13 +23,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from scribbleseg_core.engine.network import FaceClassifier
-from scribbleseg_core.signatures.geodesic import SourceDistances, label_distances
+from scribbleseg_core.signatures.geodesic import LabelContext
 
 
-def context_input(x: np.ndarray, dist: SourceDistances, area: np.ndarray, log_proba: np.ndarray) -> np.ndarray:
+def context_input(x: np.ndarray, context: LabelContext, log_proba: np.ndarray) -> np.ndarray:
     """Stage 2's input: the face descriptor `x` (m, d), then the label distances (m, 2k) of the
-    probabilities ``exp(log_proba)`` (m, k)."""
-    return np.hstack([x, label_distances(dist, area, np.exp(log_proba))])
+    probabilities ``exp(log_proba)`` (m, k) on the shape of `context`."""
+    return np.hstack([x, context.distances(np.exp(log_proba))])
 
 
 @dataclass(eq=False)
@@ -52,23 +52,22 @@ class Learner:
     def num_labels(self) -> int:
         return self.stage1.num_labels
 
-    def log_proba(self, x: np.ndarray, dist: SourceDistances | None = None, area: np.ndarray | None = None,
-                  ) -> np.ndarray:
+    def log_proba(self, x: np.ndarray, context: LabelContext | None = None) -> np.ndarray:
         """Log label probabilities per face, (m, k) float64.
 
         Parameters
         ----------
         x : (m, d) float64 ndarray
             The face descriptors (:meth:`SegmentParams.network_input`).
-        dist, area : SourceDistances, (m,) float64 ndarray
-            The shape's geodesic sample and face areas; required with a stage 2.
+        context : LabelContext
+            The shape's (:attr:`ShapeData.label_context`); required with a stage 2.
         """
         first = self.stage1.log_proba(x)
         if self.stage2 is None:
             return first
-        if dist is None or area is None:
-            raise ValueError("this learner has a label-context stage: pass the shape's distances and areas")
-        return self.stage2.log_proba(context_input(x, dist, area, first))
+        if context is None:
+            raise ValueError("this learner has a label-context stage: pass the shape's label context")
+        return self.stage2.log_proba(context_input(x, context, first))
 
     def with_threads(self, threads: int | None) -> Learner:
         """This learner predicting on `threads` torch threads (None: the cores this process

@@ -163,7 +163,7 @@ class TrainedModel:
         x = self.params.network_input(shape)
         if self.learner.stage2 is None:
             return self.learner.log_proba(x)
-        return self.learner.log_proba(x, shape.geodesic, shape.area)
+        return self.learner.log_proba(x, shape.label_context)
 
 
 @dataclass(frozen=True, eq=False)
@@ -251,7 +251,7 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
     d = next(x.shape[1] for x in inputs if x is not None)
     share = params.cross_fit if params.method == "face" else 0.0
     shapes = problem.shapes
-    context_of = (lambda i: (shapes[i].geodesic, shapes[i].area)) if params.uses_label_context else None
+    context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
     net = _Networks(d, len(problem.label_names), params.network, share, [s.is_scribbled for s in shapes], context_of)
     model, logp, best, it = None, None, np.inf, 0
     for it in range(1, params.rounds + 1):
@@ -302,8 +302,8 @@ class _Networks:
     share : float
     mixed : sequence of bool
         Per shape: is it scribbled (cross-fitted)?
-    context_of : callable(int) -> (SourceDistances, (m,) ndarray), optional
-        A shape's geodesic sample and face areas; None: no label-context stage.
+    context_of : callable(int) -> LabelContext, optional
+        A shape's label context; None: no label-context stage.
     """
 
     def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool], context_of=None):
@@ -316,6 +316,7 @@ class _Networks:
         self.fold_of = np.arange(n) % 2
         held_out = n >= 2 and (self.share > 0 or context_of is not None)
         self.halves = [FaceClassifier(d, k, params) for _ in range(2)] if held_out else []
+        self._held: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # shape -> (its input, held-out log P)
 
     @property
     def trained(self) -> bool:
@@ -330,9 +331,10 @@ class _Networks:
             others = [i for i in usable if self.fold_of[i] != f]
             if others:
                 half.fit([inputs[i] for i in others], [labels[i] for i in others], warm=half.trained)
+        self._held = {}
         second = self.main.stage2
         if second is not None:
-            X2 = [context_input(inputs[i], *self.context_of(i), (self._held_out(i) or first).log_proba(inputs[i]))
+            X2 = [context_input(inputs[i], self.context_of(i), self._held_out_log_proba(i, inputs[i], first))
                   for i in usable]
             second.fit(X2, [labels[i] for i in usable], warm=second.trained)
 
@@ -343,19 +345,30 @@ class _Networks:
         half = self.halves[self.fold_of[i]]
         return half if half.trained else None
 
+    def _held_out_log_proba(self, i: int, x: np.ndarray, fallback: FaceClassifier | None = None) -> np.ndarray | None:
+        """Log-probabilities of shape i (input `x`) from its held-out network (else from
+        `fallback`, else None); kept until the next fit, since training and the energy ask twice."""
+        if i in self._held and self._held[i][0] is x:
+            return self._held[i][1]
+        net = self._held_out(i)
+        if net is None:
+            return None if fallback is None else fallback.log_proba(x)
+        out = net.log_proba(x)
+        self._held[i] = (x, out)
+        return out
+
     def log_proba(self, inputs) -> list[np.ndarray | None]:
         out = []
         for i, x in enumerate(inputs):
             if x is None:
                 out.append(None)
                 continue
-            own = self.main.log_proba(x, *self.context_of(i)) if self.main.stage2 is not None else \
-                self.main.log_proba(x)
-            half = self._held_out(i) if self.share > 0 and self.mixed[i] else None
-            if half is None:
+            own = self.main.log_proba(x, self.context_of(i) if self.main.stage2 is not None else None)
+            held = self._held_out_log_proba(i, x) if self.share > 0 and self.mixed[i] else None
+            if held is None:
                 out.append(own)
                 continue
-            out.append(np.logaddexp(np.log1p(-self.share) + own, np.log(self.share) + half.log_proba(x)))
+            out.append(np.logaddexp(np.log1p(-self.share) + own, np.log(self.share) + held))
         return out
 
 

@@ -84,7 +84,7 @@ def collection_run(
         has = scr is not None and bool((scr >= 0).any())
         shapes.append(prepare_shape(mesh, scr if has else None, num_patches=num_patches))
         if params.uses_label_context:
-            shapes[-1].geodesic  # noqa: B018 - computed (or read) here, in the features phase
+            shapes[-1].label_context  # noqa: B018 - computed (or read) here, in the features phase
         yield FeaturesDone(i, i + 1, len(meshes))
     last = None
     for snap in segment_collection(shapes, label_names, params):
@@ -109,6 +109,6 @@ def predict_run(model: TrainedModel, meshes: Sequence[Mesh], *, num_patches: int
     for i, mesh in enumerate(meshes):
         shape = prepare_shape(mesh, num_patches=num_patches)
         if model.learner.stage2 is not None:
-            shape.geodesic  # noqa: B018 - computed (or read) in the features phase
+            shape.label_context  # noqa: B018 - computed (or read) in the features phase
         yield FeaturesDone(i, i + 1, len(meshes))
         yield Predicted(i, mesh.labels_to_file(predict_shape(model, shape)))

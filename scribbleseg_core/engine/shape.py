@@ -14,7 +14,7 @@ from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.infra.cache import ArrayCache, hash_arrays
 from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
 from scribbleseg_core.signatures.features import NUM_FEATURES, SDF_COLUMN, FeatureParams, cached_face_features
-from scribbleseg_core.signatures.geodesic import SourceDistances, cached_source_distances
+from scribbleseg_core.signatures.geodesic import LabelContext, cached_source_distances
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,13 +73,14 @@ class ShapeData:
         return self._cache[key]
 
     @property
-    def geodesic(self) -> SourceDistances:
-        """Geodesic distances from each face to a sample of the surface (cached on disk;
-        :func:`~scribbleseg_core.signatures.geodesic.cached_source_distances`)."""
-        if "geodesic" not in self._cache:
-            self._cache["geodesic"] = cached_source_distances(self.mesh.normalized(), self.mesh.F,
-                                                              self.geodesic_cache)
-        return self._cache["geodesic"]
+    def label_context(self) -> LabelContext:
+        """The learner's label context of this shape, prepared from its geodesic distances to a
+        sample of the surface (:func:`~scribbleseg_core.signatures.geodesic.cached_source_distances`,
+        cached on disk) and kept."""
+        if "label_context" not in self._cache:
+            dist = cached_source_distances(self.mesh.normalized(), self.mesh.F, self.geodesic_cache)
+            self._cache["label_context"] = LabelContext.of(dist, self.area)
+        return self._cache["label_context"]
 
     @property
     def sdf(self) -> np.ndarray:

@@ -125,6 +125,61 @@ def cached_source_distances(V: np.ndarray, F: np.ndarray, cache: ArrayCache | No
     return SourceDistances(cache.get_or_compute(key, lambda: source_distances(V, F).D))
 
 
+@dataclass(frozen=True, eq=False)
+class LabelContext:
+    """What :func:`label_distances` needs of one shape, prepared once: the distances in units
+    of the shape's mean geodesic distance and their exponentials, so that each call with new
+    probabilities is three small matrix products.
+
+    Attributes
+    ----------
+    source_face : (S,) int64 ndarray
+    weight : (S,) float64 ndarray
+        Voronoi area of each source.
+    Dn : (S, m) float32 ndarray
+        Normalized distances, 0 where unreachable.
+    Z : (S, m) float32 ndarray
+        ``exp(−(Dn − nearest)/τ)``, 0 where unreachable; `nearest` (m,) is the distance to
+        the face's nearest source.
+    nearest : (m,) float64 ndarray
+    reach : (S, m) bool ndarray or None
+        Which sources each face can reach; None when all can (one component).
+    """
+
+    source_face: np.ndarray
+    weight: np.ndarray
+    Dn: np.ndarray
+    Z: np.ndarray
+    nearest: np.ndarray
+    reach: np.ndarray | None
+
+    @classmethod
+    def of(cls, dist: SourceDistances, area: np.ndarray) -> LabelContext:
+        """Prepare from a shape's :class:`SourceDistances` and its face areas (m,)."""
+        D = dist.D
+        reach = D >= 0
+        Dz = np.where(reach, D, 0.0).astype(np.float64)
+        a = dist.source_area(area)
+        scale = (area * (a @ Dz)).sum() / max((area * (a @ reach)).sum(), 1e-300)
+        Dn = Dz / max(scale, 1e-12)
+        nearest = np.where(reach, Dn, np.inf).min(axis=0)
+        Z = np.where(reach, np.exp(-(Dn - nearest) / SOFTNESS), 0.0)
+        return cls(dist.source_face, a, Dn.astype(np.float32), Z.astype(np.float32), nearest,
+                   None if reach.all() else reach)
+
+    def distances(self, proba: np.ndarray) -> np.ndarray:
+        """:func:`label_distances` for per-face probabilities `proba` (m, k): (m, 2k) float64."""
+        W = (self.weight[:, None] * np.asarray(proba, dtype=np.float64)[self.source_face]).astype(np.float32)
+        total = W.sum(axis=0).astype(np.float64)[:, None]  # (k, 1)
+        mass = total if self.reach is None else (W.T @ self.reach.astype(np.float32)).astype(np.float64)
+        ok = mass > 1e-12 * max(self.weight.sum(), 1e-300)
+        safe = np.where(ok, mass, 1.0)
+        mean = np.where(ok, (W.T @ self.Dn) / safe, FAR)
+        ratio = (W.T @ self.Z) / safe
+        soft = np.where(ok & (ratio > 0), self.nearest - SOFTNESS * np.log(np.maximum(ratio, 1e-300)), FAR)
+        return np.minimum(np.vstack([mean, soft]).T, FAR)
+
+
 def label_distances(dist: SourceDistances, area: np.ndarray, proba: np.ndarray) -> np.ndarray:
     """How far each label lies from each face, given per-face label probabilities.
 
@@ -137,6 +192,7 @@ def label_distances(dist: SourceDistances, area: np.ndarray, proba: np.ndarray) 
 
     Distances are divided by the area-weighted mean distance over the whole shape (so the
     values are scale invariant); a label with no weight in f's component gets :data:`FAR`.
+    For repeated calls on one shape, prepare a :class:`LabelContext` once.
 
     Parameters
     ----------
@@ -151,18 +207,4 @@ def label_distances(dist: SourceDistances, area: np.ndarray, proba: np.ndarray) 
     (m, 2k) float64 ndarray
         The k mean distances, then the k soft minima.
     """
-    D = dist.D.astype(np.float64)
-    reach = D >= 0
-    Dz = np.where(reach, D, 0.0)
-    a = dist.source_area(area)
-    scale = (area * (a @ Dz)).sum() / max((area * (a @ reach)).sum(), 1e-300)
-    Dn = Dz / max(scale, 1e-12)
-    W = a[:, None] * np.asarray(proba, dtype=np.float64)[dist.source_face]  # (S, k)
-    mass = W.T @ reach  # (k, m): the weight each face can reach
-    ok = mass > 1e-12 * max(a.sum(), 1e-300)
-    mean = np.where(ok, (W.T @ Dn) / np.where(ok, mass, 1.0), FAR)
-    base = np.where(reach, Dn, np.inf).min(axis=0)  # nearest source, for a stable exponent
-    Z = np.where(reach, np.exp(-(Dn - base) / SOFTNESS), 0.0)
-    ratio = (W.T @ Z) / np.where(ok, mass, 1.0)
-    soft = np.where(ok & (ratio > 0), base - SOFTNESS * np.log(np.maximum(ratio, 1e-300)), FAR)
-    return np.minimum(np.vstack([mean, soft]).T, FAR)
+    return LabelContext.of(dist, area).distances(proba)

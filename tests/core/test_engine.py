@@ -110,9 +110,9 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
     k = len(LABELS)
     seen = []
-    monkeypatch.setattr(optimize, "context_input", lambda x, d, a, lp: seen.append(lp) or context_input(x, d, a, lp))
+    monkeypatch.setattr(optimize, "context_input", lambda x, c, lp: seen.append(lp) or context_input(x, c, lp))
     net = optimize._Networks(inputs[0].shape[1], k, PARAMS.network, 0.0, [s.is_scribbled for s in shapes],
-                             lambda i: (shapes[i].geodesic, shapes[i].area))
+                             lambda i: shapes[i].label_context)
     net.fit(inputs, labels)
     assert len(net.halves) == 2 and net.main.stage2.num_inputs == inputs[0].shape[1] + 2 * k
     used = [i for i, lab in enumerate(labels) if lab is not None]
@@ -123,7 +123,7 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     s = shapes[3]
     first = model.learner.stage1.log_proba(inputs[3])
     np.testing.assert_allclose(model.log_proba(s),
-                               model.learner.stage2.log_proba(context_input(inputs[3], s.geodesic, s.area, first)))
+                               model.learner.stage2.log_proba(context_input(inputs[3], s.label_context, first)))
     off = dataclasses.replace(PARAMS, label_context=False, rounds=1)
     assert next(x for x in segment_collection(shapes, LABELS, off) if x.model).model.learner.stage2 is None
 
