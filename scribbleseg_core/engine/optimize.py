@@ -316,7 +316,7 @@ class _Networks:
         self.fold_of = np.arange(n) % 2
         held_out = n >= 2 and (self.share > 0 or context_of is not None)
         self.halves = [FaceClassifier(d, k, params) for _ in range(2)] if held_out else []
-        self._held: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # shape -> (its input, held-out log P)
+        self._held: dict[int, tuple[int, np.ndarray]] = {}  # shape -> (id of its input, held-out log P)
 
     @property
     def trained(self) -> bool:
@@ -348,13 +348,13 @@ class _Networks:
     def _held_out_log_proba(self, i: int, x: np.ndarray, fallback: FaceClassifier | None = None) -> np.ndarray | None:
         """Log-probabilities of shape i (input `x`) from its held-out network (else from
         `fallback`, else None); kept until the next fit, since training and the energy ask twice."""
-        if i in self._held and self._held[i][0] is x:
+        if i in self._held and self._held[i][0] == id(x):
             return self._held[i][1]
         net = self._held_out(i)
         if net is None:
             return None if fallback is None else fallback.log_proba(x)
         out = net.log_proba(x)
-        self._held[i] = (x, out)
+        self._held[i] = (id(x), out)
         return out
 
     def log_proba(self, inputs) -> list[np.ndarray | None]:
