@@ -48,10 +48,6 @@ class Learner:
     stage1: FaceClassifier
     stage2: FaceClassifier | None = None
 
-    @property
-    def num_labels(self) -> int:
-        return self.stage1.num_labels
-
     def log_proba(self, x: np.ndarray, context: LabelContext | None = None) -> np.ndarray:
         """Log label probabilities per face, (m, k) float64.
 
