@@ -78,19 +78,43 @@ def _heat_agd(V, F, num_sources: int) -> np.ndarray:
         solver = pp3d.MeshHeatMethodDistanceSolver(V, F, use_robust=True)
     except Exception:  # geometry-central refuses some inputs; fall back to exact Euclidean
         return _euclidean_agd_sampled(V, w, num_sources)
-    centroid = (V * w[:, None]).sum(0) / w.sum()
-    src = int(np.argmin(np.linalg.norm(V - centroid, axis=1)))
-    D = np.empty((num_sources, n), np.float32)
-    nearest = np.full(n, np.inf)
-    for s in range(num_sources):
-        d = np.asarray(solver.compute_distance(src), dtype=np.float64)
-        d = np.where(np.isfinite(d), np.maximum(d, 0.0), 0.0)
-        D[s] = d
-        nearest = np.minimum(nearest, d)
-        src = int(np.argmax(nearest))
+    distance = lambda s: np.asarray(solver.compute_distance(s), dtype=np.float64)  # noqa: E731
+    D = farthest_point_distances(distance, V, w, num_sources).astype(np.float32)
     cell = np.argmin(D, axis=0)
     a = np.bincount(cell, w, minlength=num_sources)
     return (a @ D.astype(np.float64)) / max(a.sum(), 1e-300)
+
+
+def farthest_point_distances(distance, V: np.ndarray, w: np.ndarray, num_sources: int) -> np.ndarray:
+    """Distances from farthest-point sources to every vertex of one connected mesh.
+
+    The first source is the vertex nearest the `w`-weighted centroid, each next the vertex
+    farthest from the sources chosen.
+
+    Parameters
+    ----------
+    distance : callable(int) -> (n,) float64 ndarray
+        Distances from one vertex to all (the heat method's, or straight lines); non-finite
+        values count as 0.
+    V : (n, 3) float64 ndarray
+    w : (n,) float64 ndarray
+        Vertex areas.
+    num_sources : int
+
+    Returns
+    -------
+    (num_sources, n) float64 ndarray
+    """
+    centroid = (V * w[:, None]).sum(0) / max(w.sum(), 1e-300)
+    src = int(np.argmin(np.linalg.norm(V - centroid, axis=1)))
+    D = np.empty((num_sources, V.shape[0]))
+    nearest = np.full(V.shape[0], np.inf)
+    for s in range(num_sources):
+        d = distance(src)
+        D[s] = np.where(np.isfinite(d), np.maximum(d, 0.0), 0.0)
+        nearest = np.minimum(nearest, D[s])
+        src = int(np.argmax(nearest))
+    return D
 
 
 def _euclidean_agd_sampled(V, w, num_sources) -> np.ndarray:

@@ -18,6 +18,7 @@ import numpy as np
 from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.geometry.topology import face_components
 from scribbleseg_core.infra.cache import ArrayCache, hash_arrays
+from scribbleseg_core.signatures.agd import farthest_point_distances
 
 #: Sources of the sample (farthest-point, heat-method distances), shared among components by area.
 NUM_SOURCES = 64
@@ -96,17 +97,9 @@ def source_distances(V: np.ndarray, F: np.ndarray, num_sources: int = NUM_SOURCE
             distance = lambda s: np.asarray(solver.compute_distance(s), dtype=np.float64)  # noqa: E731
         except Exception:  # geometry-central refuses some inputs: straight-line distances
             distance = lambda s: np.linalg.norm(Vc - Vc[s], axis=1)  # noqa: E731
-        centroid = (Vc * w[:, None]).sum(0) / max(w.sum(), 1e-300)
-        src = int(np.argmin(np.linalg.norm(Vc - centroid, axis=1)))
-        nearest = np.full(len(verts), np.inf)
-        for _ in range(k):
-            d = distance(src)
-            d = np.where(np.isfinite(d), np.maximum(d, 0.0), 0.0)
-            row = np.full(m, -1.0, np.float32)
-            row[faces] = d[Fl].mean(axis=1)
-            rows.append(row)
-            nearest = np.minimum(nearest, d)
-            src = int(np.argmax(nearest))
+        block = np.full((k, m), -1.0, np.float32)
+        block[:, faces] = farthest_point_distances(distance, Vc, w, k)[:, Fl].mean(axis=2)
+        rows.append(block)
     return SourceDistances(np.vstack(rows))
 
 
