@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+import threading
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
@@ -29,15 +30,24 @@ class ShapeEntry:
     preview: np.ndarray | None = None  # (m0,) live preview after the latest edit, if newer than `labels`
     state: ShapeState = "untouched"
     error: str | None = None
+    edits: int = 0  # strokes, undos and restores so far: a run's result is stale for a shape edited since it began
     _mesh: Mesh | None = None
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     @property
     def name(self) -> str:
         return self.path.stem
 
+    @property
+    def loaded(self) -> bool:
+        return self._mesh is not None
+
     def mesh(self) -> Mesh:
+        """The mesh, loaded on first use (from any thread: loads are serialized per shape)."""
         if self._mesh is None:
-            self._mesh = load_mesh(self.path)
+            with self._lock:
+                if self._mesh is None:
+                    self._mesh = load_mesh(self.path)
         return self._mesh
 
 
@@ -47,7 +57,7 @@ class CollectionModel:
     Events
     ------
     collection_changed()
-        A new collection was opened.
+        A new collection was opened (:attr:`generation` counts them).
     current_changed(index)
         Another shape is shown.
     error(message)
@@ -60,6 +70,8 @@ class CollectionModel:
         Label names or colors changed.
     state_changed(index)
         Shape `index` changed state (untouched, scribbled, ...).
+    result_changed(index)
+        The labels shown for shape `index` changed (a run's result or a live preview).
     edit_committed(index)
         A stroke ended, or an undo/redo happened, on shape `index` (time for a preview).
     shapes_added(indices)
@@ -85,6 +97,8 @@ class CollectionModel:
         self._last_point = None
         self.trained_model = None
         self.session_path: Path | None = None
+        self.generation = 0  # bumped by every collection opened: work begun for another one is stale
+        self.version = 0  # bumped by every unsaved change: a save that began before it leaves the work unsaved
         self.collection_changed = Event()
         self.restore_available = Event()
         self.shapes_added = Event()
@@ -94,6 +108,7 @@ class CollectionModel:
         self.current_label_changed = Event()
         self.labels_changed = Event()
         self.state_changed = Event()
+        self.result_changed = Event()
         self.edit_committed = Event()
         self.unsaved_changed = Event()
         self._unsaved = False
@@ -105,6 +120,8 @@ class CollectionModel:
         return self._unsaved
 
     def _set_unsaved(self, value: bool) -> None:
+        if value:
+            self.version += 1
         if value != self._unsaved:
             self._unsaved = value
             self.unsaved_changed.emit(value)
@@ -143,6 +160,7 @@ class CollectionModel:
         self.label_set = label_set
         self.trained_model = model
         self.current = -1
+        self.generation += 1
         self._set_unsaved(False)
         self.collection_changed.emit()
         if shapes:
@@ -174,17 +192,24 @@ class CollectionModel:
             self.shapes_added.emit(added)
         return added
 
-    def set_result(self, index: int, labels: np.ndarray, state: ShapeState) -> None:
-        """Store a run's or a prediction's labels (m0,) for shape `index`."""
+    def set_result(self, index: int, labels: np.ndarray, state: ShapeState, edits: int | None = None) -> None:
+        """Store a run's or a prediction's labels (m0,) for shape `index`. `edits`: the
+        shape's :attr:`ShapeEntry.edits` when the run began; if it was edited since, a preview
+        of the newer strokes stays shown over the result."""
         entry = self.shapes[index]
         entry.labels = np.asarray(labels, dtype=np.int64)
-        entry.preview = None  # the result is newer
+        if edits is None or edits == entry.edits:
+            entry.preview = None  # the result is newer
         if entry.state != state:
             entry.state = state
         self._set_unsaved(True)
         self.state_changed.emit(index)
-        if index == self.current:
-            self.scribbles_changed.emit(index, np.zeros(0, np.int64))
+        self.result_changed.emit(index)
+
+    def set_preview(self, index: int, labels: np.ndarray | None) -> None:
+        """The live preview (m0,) of shape `index` after its latest edit (None: nothing to preview)."""
+        self.shapes[index].preview = None if labels is None else np.asarray(labels, dtype=np.int64)
+        self.result_changed.emit(index)
 
     # ------------------------------------------------------------------ sessions
 
@@ -207,29 +232,36 @@ class CollectionModel:
             self.error.emit(problem)
 
     def save_session(self, folder: str | os.PathLike) -> list[str]:
-        """Write the collection, labels, scribbles, results and model into `folder`.
+        """Write the collection, labels, scribbles, results and model into `folder` (here, on
+        this thread: :meth:`session_snapshot`, :func:`write_session` and :meth:`mark_saved`).
 
         Returns
         -------
         list of str
-            Shapes left out (their mesh never loaded, so their face count is unknown).
+            Shapes left out (their mesh did not load, so their face count is unknown).
         """
-        from scribbleseg_core.store.session import Session, SessionShape, save_session
-
-        shapes, skipped = [], []
-        for i, entry in enumerate(self.shapes):
-            if entry.state == "error":
-                skipped.append(entry.name)
-                continue
-            n = entry.mesh().num_file_faces
-            scribble = self.layer(i).labels.copy()
-            state = entry.state if entry.state in ("labeled", "predicted") else ("scribbled" if (scribble >= 0).any() else "untouched")
-            shapes.append(SessionShape(entry.path, n, scribble, self.shown_labels(i), state))
-        current = max(0, self.current - sum(1 for e in self.shapes[: max(self.current, 0)] if e.state == "error"))
-        save_session(folder, Session(self.label_set, shapes, current, self.trained_model))
-        self.session_path = Path(folder)
-        self._set_unsaved(False)
+        snapshot = self.session_snapshot()
+        skipped = write_session(folder, snapshot)
+        self.mark_saved(folder, snapshot.version)
         return skipped
+
+    def session_snapshot(self) -> SessionSnapshot:
+        """Copies of what a session holds, taken on the main thread; the meshes load and the
+        files are written elsewhere (:func:`write_session`)."""
+        shapes = []
+        for i, entry in enumerate(self.shapes):
+            scribble = self.layer(i).labels.copy() if i in self._layers else self.scribble_labels(i)
+            labels = self.shown_labels(i)
+            shapes.append((entry, scribble, None if labels is None else labels.copy()))
+        current = max(0, self.current - sum(1 for e in self.shapes[: max(self.current, 0)] if e.state == "error"))
+        return SessionSnapshot(shapes, self.label_set, current, self.trained_model, self.version)
+
+    def mark_saved(self, folder: str | os.PathLike, version: int) -> None:
+        """A session of the model as it was at `version` was written to `folder`; the work
+        is saved unless it changed since."""
+        self.session_path = Path(folder)
+        if version == self.version:
+            self._set_unsaved(False)
 
     # ------------------------------------------------------------------ autosave
 
@@ -304,16 +336,18 @@ class CollectionModel:
         return tuple(read_label_names(f)) if f.is_file() else ()
 
     def set_current(self, index: int) -> None:
+        """Show shape `index`; its mesh loads wherever the view asks for it first."""
         if not 0 <= index < len(self.shapes) or index == self.current:
             return
-        entry = self.shapes[index]
-        try:
-            entry.mesh()
-        except ScribblesegError as e:
-            entry.state, entry.error = "error", str(e)
-            self.error.emit(str(e))
         self.current = index
         self.current_changed.emit(index)
+
+    def mark_error(self, index: int, message: str) -> None:
+        """Shape `index`'s mesh failed to load: `message` names the file and the problem."""
+        entry = self.shapes[index]
+        entry.state, entry.error = "error", message
+        self.state_changed.emit(index)
+        self.error.emit(message)
 
     # ------------------------------------------------------------------ painting
 
@@ -451,6 +485,17 @@ class CollectionModel:
         if self.layer(self.current).end():
             self._after_edit(self.current)
 
+    def paint_faces(self, index: int, faces, label: int) -> np.ndarray:
+        """Give file faces `faces` of shape `index` the scribble `label` (-1 erases) in one undo
+        step, as a finished stroke does (autosave, preview). Returns the faces that changed."""
+        layer = self.layer(index)
+        layer.begin()
+        changed = layer.paint(np.asarray(faces, dtype=np.int64), int(label))
+        if layer.end():
+            self.scribbles_changed.emit(index, changed)
+            self._after_edit(index)
+        return changed
+
     def undo(self) -> None:
         self._history(self.layer(self.current).undo) if self.current >= 0 else None
 
@@ -464,6 +509,7 @@ class CollectionModel:
             self._after_edit(self.current)
 
     def _after_edit(self, index: int) -> None:
+        self.shapes[index].edits += 1
         self._set_unsaved(True)
         self._refresh_state(index)
         self.autosave(index)
@@ -516,3 +562,37 @@ class CollectionModel:
         s = scribble >= 0
         colors[s] = self.label_set.face_colors(scribble[s]) * 0.6
         return colors
+
+
+@dataclass(frozen=True)
+class SessionSnapshot:
+    """What :func:`write_session` writes: (entry, scribbles (m0,) or None, shown labels (m0,)
+    or None) per shape, the labels, the current shape, the model, and the model's version."""
+
+    shapes: list
+    label_set: LabelSet
+    current: int
+    model: object
+    version: int
+
+
+def write_session(folder: str | os.PathLike, snapshot: SessionSnapshot) -> list[str]:
+    """Write `snapshot` as a session into `folder` (any thread: it loads meshes for their face
+    counts). Returns the shapes left out, whose mesh did not load."""
+    from scribbleseg_core.store.session import Session, SessionShape, save_session
+
+    shapes, skipped = [], []
+    for entry, scribble, labels in snapshot.shapes:
+        if entry.state == "error":
+            skipped.append(entry.name)
+            continue
+        try:
+            n = entry.mesh().num_file_faces
+        except ScribblesegError:
+            skipped.append(entry.name)
+            continue
+        scribble = np.full(n, -1, np.int64) if scribble is None else scribble
+        state = entry.state if entry.state in ("labeled", "predicted") else ("scribbled" if (scribble >= 0).any() else "untouched")
+        shapes.append(SessionShape(entry.path, n, scribble, labels, state))
+    save_session(folder, Session(snapshot.label_set, shapes, snapshot.current, snapshot.model))
+    return skipped

@@ -200,9 +200,15 @@ class PolyscopeViewport:
         self._apply_orbit()
 
     def set_colors(self, colors: np.ndarray) -> None:
-        """Update the face colors of the shown mesh in place, (m, 3)."""
-        if self._ps.has_surface_mesh(STRUCTURE):
-            self._ps.get_surface_mesh(STRUCTURE).add_color_quantity(COLORS, colors, defined_on="faces", enabled=True)
+        """Update the face colors of the shown mesh in place, (m, 3) (the quantity's buffer
+        is rewritten; the quantity is not made again)."""
+        if not self._ps.has_surface_mesh(STRUCTURE):
+            return
+        mesh = self._ps.get_surface_mesh(STRUCTURE)
+        try:
+            mesh.get_quantity_buffer(COLORS, "colors").update_data(np.asarray(colors, dtype=np.float64))
+        except ValueError:  # no such quantity yet
+            mesh.add_color_quantity(COLORS, colors, defined_on="faces", enabled=True)
 
     def set_window_size(self, width: int, height: int) -> None:
         self._ps.set_window_size(int(width), int(height))
@@ -210,14 +216,18 @@ class PolyscopeViewport:
     def window_size(self) -> tuple[int, int]:
         return tuple(self._ps.get_window_size())
 
-    def tick(self) -> None:
-        """Render one frame, then act on the mouse input it sampled."""
+    def tick(self) -> bool:
+        """Render one frame, then act on the mouse input it sampled. Returns whether the user
+        did something in the viewport window during it (moved, clicked, scrolled, a key)."""
         self._input = None
         self._ps.frame_tick()
         self.frames += 1
         self.close_requested = bool(self._ps.window_requests_close())
-        if self._input is not None:
-            self._handle(self._input)
+        inp = self._input
+        if inp is None:
+            return False
+        self._handle(inp)
+        return bool(inp.delta != (0.0, 0.0) or any(inp.down) or inp.wheel or inp.clicked or inp.keys)
 
     def screenshot(self, path: str) -> None:
         self._ps.screenshot(path, transparent_bg=False)

@@ -49,18 +49,14 @@ def main() -> None:
             entry = m.shapes[index]
             scr = read_scribbles(args.psb / cat / "scribbles" / f"{entry.name}.json", num_faces=entry.mesh().num_file_faces)
             m.set_current(index)
-            layer = m.layer(index)
-            layer.begin()
-            layer.paint(np.arange(len(layer.labels)), -1)  # start from a clean shape
-            layer.end()
+            m.paint_faces(index, np.arange(entry.mesh().num_file_faces), -1)  # start from a clean shape
+            while not w.previews.idle:
+                app.processEvents()
             times = []
             for stroke in scr.strokes:
-                layer.begin()
-                layer.paint(stroke.faces, stroke.label)
-                layer.end()
                 t0 = time.perf_counter()
-                m._after_edit(index)  # what a mouse release runs: autosave, then the preview request
-                while not w.preview_idle():
+                m.paint_faces(index, stroke.faces, stroke.label)  # what a mouse release ends with: autosave, preview request
+                while not w.previews.idle:
                     app.processEvents()
                     time.sleep(0.001)
                 app.processEvents()

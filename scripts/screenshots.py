@@ -29,24 +29,27 @@ def main(out: Path = ROOT / "docs") -> None:
 
     w = MainWindow(viewport=viewport, autosave_dir=tempfile.mkdtemp())  # no restore offer from the user's own autosave
     w.show()
-    w.shape_list.setCurrentRow(0)
-    for _ in range(5):
-        app.processEvents()
-        viewport.tick()
+
+    def settle(index: int) -> None:
+        w.shapes.list.setCurrentRow(index)
+        while w.view.showing != index:  # the mesh loads off the main thread
+            app.processEvents()
+            time.sleep(0.01)
+        for _ in range(5):
+            app.processEvents()
+            viewport.tick()
+
+    settle(0)
     out.mkdir(parents=True, exist_ok=True)
     w.grab().save(str(out / "app_window.png"))
     viewport.screenshot(str(out / "app_viewport.png"))
-    w.run_collection()
-    while w.worker is not None:  # paced like the app's QTimer, leaving the worker a core
+    w.runs.segment()
+    while w.runs.running:  # the window's own timer paces the frames, leaving the run a core
         app.processEvents()
-        viewport.tick()
-        time.sleep(0.016)
+        time.sleep(0.005)
     app.processEvents()
     print(w.statusBar().currentMessage())
-    w.shape_list.setCurrentRow(4)  # no scribbles: predicted
-    for _ in range(5):
-        app.processEvents()
-        viewport.tick()
+    settle(4)  # no scribbles: predicted
     w.grab().save(str(out / "app_result_window.png"))
     viewport.screenshot(str(out / "app_result_viewport.png"))
     print(f"wrote screenshots to {out}")

@@ -1,7 +1,7 @@
 """A whole collection, end to end: features, the optimization, predictions.
 
 :func:`collection_run` is a generator of small frozen messages. The CLI's ``segment``
-consumes it directly; the app wraps it in a superqt ``thread_worker`` and applies each
+consumes it directly; the app runs it on a background job thread and applies each
 message on the main thread.
 """
 

@@ -16,12 +16,13 @@ def test_opens_the_demo_collection_and_shows_shapes(qtbot, viewport, tmp_path):
     qtbot.addWidget(w)
     w.show()
     assert w.model.folder == DEFAULT_COLLECTION
-    assert w.shape_list.count() == 10
-    assert "[scribbled]" in w.shape_list.item(0).text()
-    assert [w.label_list.item(i).text() for i in range(w.label_list.count())] == ["1  body", "2  head", "3  leg", "4  tail"]
+    assert w.shapes.list.count() == 10
+    assert "[scribbled]" in w.shapes.list.item(0).text()
+    assert [w.labels.list.item(i).text() for i in range(w.labels.list.count())] == ["1  body", "2  head", "3  leg", "4  tail"]
     qtbot.waitUntil(lambda: viewport.frames > 3, timeout=5000)  # the QTimer drives frames
-    w.shape_list.setCurrentRow(3)
+    w.shapes.list.setCurrentRow(3)
     assert w.model.current == 3
+    qtbot.waitUntil(lambda: w.view.showing == 3, timeout=5000)
     shot = tmp_path / "view.png"
     viewport.screenshot(str(shot))
     from PySide6.QtGui import QImage
@@ -38,11 +39,11 @@ def test_a_bad_mesh_is_reported_and_the_rest_stays(qtbot, viewport, tmp_path):
     (tmp_path / "bad.off").write_text("OFF\n3 1 0\n0 0 0\n")
     w = MainWindow(str(tmp_path), viewport=viewport, autosave_dir=tmp_path / "autosave")
     qtbot.addWidget(w)
-    assert w.shape_list.count() == 2
-    w.shape_list.setCurrentRow(0)  # bad.off sorts first
-    assert w.model.shapes[0].state == "error"
+    assert w.shapes.list.count() == 2
+    w.shapes.list.setCurrentRow(0)  # bad.off sorts first; it loads in the background
+    qtbot.waitUntil(lambda: w.model.shapes[0].state == "error", timeout=5000)
     assert "bad.off: truncated" in w.statusBar().currentMessage()
-    w.shape_list.setCurrentRow(1)
+    w.shapes.list.setCurrentRow(1)
     assert w.model.current == 1 and w.model.shapes[1].state == "untouched"
 
 
@@ -73,9 +74,10 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     w.show()
     w.activateWindow()
     qtbot.waitActive(w)
-    w.shape_list.setCurrentRow(1)  # quadruped_02: untouched
+    w.shapes.list.setCurrentRow(1)  # quadruped_02: untouched
+    qtbot.waitUntil(lambda: w.view.showing == 1, timeout=5000)  # loaded off the main thread, then shown
     assert w.model.shapes[1].state == "untouched"
-    w.paint_box.setChecked(True)
+    w.tools.paint_box.setChecked(True)
     qtbot.keyClick(w, Qt.Key.Key_2)  # head
     assert w.model.current_label == 1
     width, height = viewport.window_size()
@@ -84,12 +86,12 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     layer = w.model.layer(1)
     painted = np.flatnonzero(layer.labels == 1)
     assert len(painted) > 20
-    assert w.model.shapes[1].state == "scribbled" and "[scribbled]" in w.shape_list.item(1).text()
+    assert w.model.shapes[1].state == "scribbled" and "[scribbled]" in w.shapes.list.item(1).text()
     # the live preview labels the whole shape in the background, scribbles kept
-    qtbot.waitUntil(w.preview_idle, timeout=10_000)
+    qtbot.waitUntil(lambda: w.previews.idle, timeout=10_000)
     preview = w.model.shapes[1].preview
     assert preview is not None and (preview == 1).all()  # one label painted: all head
-    assert 0 < w.last_preview_seconds < 5 and "preview in" in w.statusBar().currentMessage()
+    assert 0 < w.previews.last_seconds < 5 and "preview in" in w.statusBar().currentMessage()
     saved = json.loads((w.model.autosave_folder() / "quadruped_02.json").read_text())
     assert saved["strokes"][0]["label"] == 1 and len(saved["strokes"][0]["faces"]) == len(painted)
     # the painted faces form one connected band: no gaps between the two samples
@@ -100,7 +102,7 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     comps = split_components(mesh.F_file, sub.astype(int))
     assert len(np.unique(comps[painted])) == 1
     # eraser, then undo / redo (Ctrl+Z, Ctrl+Shift+Z)
-    w.eraser_box.setChecked(True)
+    w.tools.eraser_box.setChecked(True)
     _drag(viewport, [(cx - 10, cy), (cx + 10, cy)])
     assert (layer.labels == 1).sum() < len(painted)
     qtbot.keyClick(w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
@@ -132,7 +134,7 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     key(psim.ImGuiKey_3)
     assert w.model.current_label == 2
     # a drag that starts off the shape moves the camera and paints nothing
-    w.eraser_box.setChecked(False)
+    w.tools.eraser_box.setChecked(False)
     before = layer.labels.copy()
     _drag(viewport, [(5, 5), (60, 40)])
     np.testing.assert_array_equal(layer.labels, before)
@@ -149,30 +151,31 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
     qtbot.addWidget(w)
     w.show()
     frames_before = viewport.frames
-    w.run_button.click()
-    assert not w.run_button.isEnabled() and w.stop_button.isEnabled()
-    assert not w.add_label_button.isEnabled() and not w.delete_label_button.isEnabled()
-    qtbot.waitUntil(lambda: w.worker is None, timeout=300_000)
+    w.run_panel.run_button.click()
+    assert not w.run_panel.run_button.isEnabled() and w.run_panel.stop_button.isEnabled()
+    assert not w.labels.add_button.isEnabled() and not w.labels.delete_button.isEnabled()
+    qtbot.waitUntil(lambda: not w.runs.running, timeout=300_000)
     assert viewport.frames > frames_before + 10  # the window kept rendering during the run
-    assert w.run_seconds > 0 and 0 < w.run_max_frame_gap < w.run_seconds
-    assert w.add_label_button.isEnabled() and w.delete_label_button.isEnabled()
+    assert w.runs.seconds > 0 and 0 < w.frames.max_gap < w.runs.seconds
+    assert w.labels.add_button.isEnabled() and w.labels.delete_button.isEnabled()
     assert "finished in" in w.statusBar().currentMessage()
     states = [e.state for e in w.model.shapes]
     assert states.count("labeled") == 3 and states.count("predicted") == 7
-    assert len(w.energy_plot.values) >= 2
+    assert len(w.runs.history.steps) >= 2 and [t for _, t in w.runs.history.marks][:2] == ["signatures", "round 1"]
     assert w.model.trained_model is not None
     from scribbleseg_core.formats.seg import read_seg
 
     gt = read_seg(w.model.shapes[0].path.parent / "labels" / "quadruped_01.seg")
     assert (w.model.shapes[0].labels == gt).mean() > 0.9
-    written = w.export_all(tmp_path / "export")
+    written = w.files.export(tmp_path / "export", wait=True)
     assert len(written) == 10 * 6  # ply, seg, obj, mtl, glb, json per shape
     for e in w.model.shapes:
         np.testing.assert_array_equal(read_ply_labels(tmp_path / "export" / f"{e.name}.ply"), e.labels)
     assert len(trimesh.load(tmp_path / "export" / "quadruped_05.ply", process=False).faces) == len(w.model.shapes[4].labels)
     # save the session, reopen it in a fresh window: the same scribbles, results and model
     monkeypatch.setattr("PySide6.QtWidgets.QFileDialog.getExistingDirectory", lambda *a, **k: str(tmp_path / "session"))
-    assert w.save_session()  # no session folder yet: asks for one
+    assert w.save_session()  # no session folder yet: asks for one; saves in the background
+    qtbot.waitUntil(lambda: not w.files.busy, timeout=30_000)
     w2 = MainWindow(str(tmp_path / "session"), viewport=viewport, autosave_dir=tmp_path / "autosave2")
     qtbot.addWidget(w2)
     assert w2.model.session_path == tmp_path / "session" and w2.model.trained_model is not None
@@ -187,22 +190,22 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
     extra = tmp_path / "later" / "newcomer.ply"
     extra.parent.mkdir()
     shutil.copy(w.model.shapes[4].path, extra)
-    assert w2.model.add_meshes([extra]) == [10] and w2.shape_list.count() == 11
-    w2.predict_button.click()
-    qtbot.waitUntil(lambda: w2.worker is None, timeout=120_000)
+    assert w2.model.add_meshes([extra]) == [10] and w2.shapes.list.count() == 11
+    w2.run_panel.predict_button.click()
+    qtbot.waitUntil(lambda: not w2.runs.running, timeout=120_000)
     assert w2.model.shapes[10].state == "predicted"
     assert (w2.model.shapes[10].labels == w.model.shapes[4].labels).mean() > 0.95  # same mesh, same model
     # export only the current shape
-    w2.shape_list.setCurrentRow(10)
-    written = w2.export_all(tmp_path / "export_one", only=[w2.model.current])
+    w2.shapes.list.setCurrentRow(10)
+    written = w2.files.export(tmp_path / "export_one", only=[w2.model.current], wait=True)
     assert sorted(p.suffix for p in written) == [".glb", ".json", ".mtl", ".obj", ".ply", ".seg"]
     # inspect: a feature as the surface color (computed in the background, from the cache)
-    w2.show_combo.setCurrentText("Feature: SDF")
-    qtbot.waitUntil(lambda: (10, 1) in w2._features, timeout=60_000)
-    colors = w2.shown_colors(10)
+    w2.tools.show_combo.setCurrentText("Feature: SDF")
+    qtbot.waitUntil(lambda: w2.view.feature_values(10, 1) is not None, timeout=60_000)
+    colors = w2.view.colors(10)
     assert colors.shape == (len(w2.model.shapes[10].labels), 3) and colors.std(axis=0).max() > 0.05
-    w2._on_hover(5)
-    assert "face 5: label" in w2.statusBar().currentMessage() and "SDF =" in w2.statusBar().currentMessage()
+    text = w2.view.hover_text(5)
+    assert "face 5: label" in text and "SDF =" in text
 
 
 def test_autosaved_scribbles_are_offered_after_a_crash(qtbot, viewport, tmp_path, monkeypatch):
@@ -211,12 +214,8 @@ def test_autosaved_scribbles_are_offered_after_a_crash(qtbot, viewport, tmp_path
 
     w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
     qtbot.addWidget(w)
-    layer = w.model.layer(1)
-    layer.begin()
-    layer.paint(np.arange(30), 2)
-    layer.end()
-    w.model._after_edit(1)  # what a mouse stroke ends with: the autosave
-    painted = layer.labels.copy()
+    w.model.paint_faces(1, np.arange(30), 2)  # a stroke: autosaved
+    painted = w.model.layer(1).labels.copy()
     w.close()  # "crash": nothing saved but the autosave
     asked = []
     monkeypatch.setattr(MainWindow, "_confirm", lambda self, title, text: asked.append(text) or True)
@@ -225,13 +224,9 @@ def test_autosaved_scribbles_are_offered_after_a_crash(qtbot, viewport, tmp_path
     qtbot.waitUntil(lambda: bool(asked), timeout=5000)
     assert "1 shape(s)" in asked[0]
     np.testing.assert_array_equal(w2.model.layer(1).labels, painted)
-    w2.model_undo() if w2.model.current == 1 else None
-    # declined: set aside, not offered again, nothing deleted
+        # declined: set aside, not offered again, nothing deleted
     monkeypatch.setattr(MainWindow, "_confirm", lambda self, title, text: asked.append(text) or False)
-    w2.model.layer(1).begin()
-    w2.model.layer(1).paint(np.arange(30, 40), 0)
-    w2.model.layer(1).end()
-    w2.model._after_edit(1)
+    w2.model.paint_faces(1, np.arange(30, 40), 0)
     w3 = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
     qtbot.addWidget(w3)
     qtbot.waitUntil(lambda: len(asked) == 2, timeout=5000)
@@ -250,9 +245,9 @@ def test_delete_label_erases_its_scribbles_and_shifts_ids(qtbot, viewport, tmp_p
     qtbot.addWidget(w)
     before = w.model.layer(0).labels.copy()  # demo scribbles: body 0, head 1, leg 2, tail 3
     monkeypatch.setattr(MainWindow, "_confirm", lambda self, title, text: True)
-    w.label_list.setCurrentRow(1)
-    w.delete_label_button.click()
-    assert w.model.label_set.names == ("body", "leg", "tail") and w.label_list.count() == 3
+    w.labels.list.setCurrentRow(1)
+    w.labels.delete_button.click()
+    assert w.model.label_set.names == ("body", "leg", "tail") and w.labels.list.count() == 3
     after = w.model.layer(0).labels
     assert (after[before == 1] == -1).all() and (after[before == 2] == 1).all() and (after[before == 0] == 0).all()
 
@@ -270,11 +265,7 @@ def test_quitting_with_unsaved_work_offers_to_save_a_session(qtbot, viewport, tm
     w.close()  # nothing changed: no question
     assert not w.isVisible()
     w.show()
-    layer = w.model.layer(1)
-    layer.begin()
-    layer.paint(np.arange(25), 2)
-    layer.end()
-    w.model._after_edit(1)
+    w.model.paint_faces(1, np.arange(25), 2)
     assert w.model.unsaved and w.windowTitle().endswith(" *")
     answers = ["cancel"]
     monkeypatch.setattr(MainWindow, "_ask_unsaved", lambda self, can_cancel: answers.pop(0))
@@ -302,11 +293,15 @@ def test_a_run_never_writes_into_a_collection_opened_after_it(qtbot, viewport, t
     w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")  # the demo creatures
     qtbot.addWidget(w)
     w.show()
-    w.run_button.click()
-    qtbot.waitUntil(lambda: w.progress.value() >= 1, timeout=60_000)  # the run is under way
+    ended = []
+    w.runs.finished.connect(ended.append)
+    w.run_panel.run_button.click()
+    qtbot.waitUntil(lambda: w.run_panel.progress.value() >= 1, timeout=60_000)  # the run is under way
+    job = w.runs.job
     w.model.open(Path(__file__).resolve().parents[2] / "assets" / "Chair")
-    qtbot.waitUntil(lambda: w.worker is None, timeout=120_000)
-    assert all(e.state in ("untouched", "scribbled") for e in w.model.shapes)
-    assert w.model.trained_model is None
-    assert "stopped: another collection was opened" in w.statusBar().currentMessage()
-    assert w.run_button.isEnabled()
+    assert not w.runs.running and "stopped: another collection was opened" in ended[0]
+    assert w.run_panel.run_button.isEnabled()
+    qtbot.waitUntil(lambda: not job.running, timeout=120_000)  # the old run's thread ends at its next step
+    qtbot.wait(50)  # anything it posted has been delivered (and dropped)
+    assert all(e.state in ("untouched", "scribbled") and e.labels is None for e in w.model.shapes)
+    assert w.model.trained_model is None and len(ended) == 1

@@ -30,11 +30,7 @@ def _model(tmp_path, folder):
 
 
 def _paint(m, index, faces, label):
-    layer = m.layer(index)
-    layer.begin()
-    layer.paint(np.asarray(faces), label)
-    layer.end()
-    m._after_edit(index)
+    m.paint_faces(index, faces, label)
 
 
 def test_bad_added_mesh_is_reported_and_not_added(tmp_path):

@@ -6,7 +6,7 @@ import threading
 import time
 
 import numpy as np
-from scribbleseg_app.preview import PreviewEngine, PreviewRequest, PreviewWorker
+from scribbleseg_app.controllers.preview import PreviewEngine, PreviewRequest, PreviewWorker
 
 from tests.core.planted import LABELS, creature, stroke_faces
 

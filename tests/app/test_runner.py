@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from scribbleseg_app.runner import FeaturesDone, Predicted, StepDone, collection_run
+from scribbleseg_app.controllers.engine_runs import FeaturesDone, Predicted, StepDone, collection_run
 
 from scribbleseg_core.engine.network import NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams

@@ -1,19 +1,23 @@
 """Live preview: after each stroke, re-propagate the shape's labels in the background.
 
 :class:`PreviewWorker` runs one thread that always computes the *latest* request only:
-a request made while another is pending replaces it (older strokes are stale), and a
-result that arrives after a newer request was made is dropped by the caller, who compares
-generations. No Qt here; the window hops results onto the main thread.
+a request made while another is pending replaces it (older strokes are stale).
+:class:`PreviewController` asks for a preview after every edit, drops a result that arrives
+after a newer request was made (it compares generations), and stores the rest in the model
+on the main thread.
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+from scribbleseg_app.controllers.jobs import Dispatcher
+from scribbleseg_app.events import Event
 
 from scribbleseg_core.engine.propagate import PropagateParams, propagate_scribbles
 from scribbleseg_core.engine.shape import ShapeData
@@ -59,17 +63,31 @@ class PreviewResult:
 
 
 class PreviewEngine:
-    """Computes previews; keeps each mesh's dual graph, network input and SDF (costly once)."""
+    """Computes previews; keeps the dual graph, network input and SDF of the last
+    :data:`KEEP` meshes (costly once per mesh)."""
+
+    #: Meshes whose costly parts are kept; older ones are released.
+    KEEP = 4
 
     def __init__(self) -> None:
-        self._graphs: dict[int, tuple[Mesh, DualGraph]] = {}
-        self._shapes: dict[int, ShapeData] = {}  # with their network inputs and geodesics
-        self._sdf: dict[int, tuple[Mesh, np.ndarray]] = {}
+        self._graphs: OrderedDict[int, tuple[Mesh, DualGraph]] = OrderedDict()
+        self._shapes: OrderedDict[int, ShapeData] = OrderedDict()  # with their network inputs and geodesics
+        self._sdf: OrderedDict[int, tuple[Mesh, np.ndarray]] = OrderedDict()
+
+    def _keep(self, cache: OrderedDict, key: int) -> None:
+        cache.move_to_end(key)
+        while len(cache) > self.KEEP:
+            cache.popitem(last=False)
+
+    def cached_meshes(self) -> int:
+        """How many meshes have something kept (tests: the caches stay bounded)."""
+        return len(set(self._graphs) | set(self._shapes) | set(self._sdf))
 
     def graph(self, mesh: Mesh) -> DualGraph:
         key = id(mesh)
         if key not in self._graphs or self._graphs[key][0] is not mesh:
             self._graphs[key] = (mesh, dual_graph(mesh.normalized(), mesh.F))
+        self._keep(self._graphs, key)
         return self._graphs[key][1]
 
     def log_proba(self, mesh: Mesh, model) -> np.ndarray:
@@ -83,6 +101,7 @@ class PreviewEngine:
             X = cached_face_features(mesh.V, mesh.F)
             scribble = np.full(len(mesh.F), -1, np.int64)
             self._shapes[key] = ShapeData(mesh, X, face_areas(mesh.normalized(), mesh.F), self.graph(mesh), scribble)
+        self._keep(self._shapes, key)
         return model.log_proba(self._shapes[key])
 
     def compute(self, req: PreviewRequest) -> np.ndarray | None:
@@ -112,6 +131,7 @@ class PreviewEngine:
             if X is None:
                 return None  # looked up again at the next stroke: a run may have computed them
             self._sdf[key] = (mesh, X[:, SDF_COLUMN].copy())
+        self._keep(self._sdf, key)
         return self._sdf[key][1]
 
 
@@ -130,6 +150,7 @@ class PreviewWorker:
         self._deliver = deliver
         self._pending: PreviewRequest | None = None
         self._closed = False
+        self._reset = False
         self._cond = threading.Condition()
         self._thread = threading.Thread(target=self._loop, name="scribbleseg-preview", daemon=True)
         self._thread.start()
@@ -140,11 +161,19 @@ class PreviewWorker:
             self._pending = req
             self._cond.notify()
 
-    def close(self, timeout: float = 5.0) -> None:
+    def reset(self) -> None:
+        """Release the engine's caches (another collection was opened) before the next preview."""
+        with self._cond:
+            self._reset = True
+            self._pending = None
+
+    def close(self, timeout: float = 5.0) -> bool:
+        """Stop the thread after the preview under way; True when it ended within `timeout`."""
         with self._cond:
             self._closed = True
             self._cond.notify()
         self._thread.join(timeout)
+        return not self._thread.is_alive()
 
     def _loop(self) -> None:
         while True:
@@ -154,8 +183,96 @@ class PreviewWorker:
                 if self._closed:
                     return
                 req, self._pending = self._pending, None
+                if self._reset:
+                    self.engine, self._reset = type(self.engine)(), False
             try:
                 labels, error = self.engine.compute(req), None
             except Exception as e:  # a preview must never take the app down
                 labels, error = None, f"{req.mesh.name}: preview failed: {e}"
             self._deliver(PreviewResult(req.generation, req.index, labels, time.perf_counter() - req.requested_at, error))
+
+
+class PreviewController:
+    """Previews the edited shape after every stroke (``model.edit_committed``).
+
+    Events
+    ------
+    done(index, seconds)
+        The preview of shape `index` is in the model (``ShapeEntry.preview``), `seconds`
+        after the stroke's release.
+    failed(message)
+        A preview failed; the message names the shape.
+
+    Parameters
+    ----------
+    model : CollectionModel
+    dispatcher : Dispatcher
+    engine : PreviewEngine, optional
+    """
+
+    def __init__(self, model, dispatcher: Dispatcher, engine: PreviewEngine | None = None) -> None:
+        self.model = model
+        self.dispatcher = dispatcher
+        self.enabled = True
+        self.last_seconds: float | None = None
+        self.done, self.failed = Event(), Event()
+        self._engine = engine
+        self._worker: PreviewWorker | None = None
+        self._requested = 0  # generation of the latest request
+        self._arrived = 0  # generation of the latest result back (used or stale)
+        self._models: tuple[object, object] | None = None  # (the model's trained model, its one-thread copy)
+        model.edit_committed.connect(self.request)
+        model.collection_changed.connect(self._on_collection_changed)
+
+    @property
+    def idle(self) -> bool:
+        """True when the latest requested preview has arrived (tests wait on this)."""
+        return self._arrived == self._requested
+
+    @property
+    def engine(self) -> PreviewEngine | None:
+        return self._worker.engine if self._worker is not None else self._engine
+
+    def request(self, index: int) -> None:
+        """Re-propagate shape `index`'s labels in the background; older requests go stale."""
+        m = self.model
+        if not self.enabled or not 0 <= index < len(m.shapes) or m.shapes[index].state == "error":
+            return
+        if self._worker is None:
+            self._worker = PreviewWorker(self._deliver, self._engine)
+        self._requested += 1
+        self._worker.request(PreviewRequest(self._requested, index, m.shapes[index].mesh(), m.layer(index).labels.copy(),
+                                            max(len(m.label_set), 1), self._model(), time.perf_counter()))
+
+    def _model(self):
+        """The trained model on one torch thread (its own copy), or None when it no longer fits the labels."""
+        model = self.model.trained_model
+        if model is None or len(model.label_names) != len(self.model.label_set):
+            return None  # labels were added or deleted since the run
+        if self._models is None or self._models[0] is not model:
+            self._models = (model, replace(model, learner=model.learner.with_threads(1)))
+        return self._models[1]
+
+    def _deliver(self, result: PreviewResult) -> None:  # on the worker thread
+        self.dispatcher.post(lambda: self._apply(result))
+
+    def _apply(self, result: PreviewResult) -> None:
+        self._arrived = max(self._arrived, result.generation)
+        if result.generation != self._requested:
+            return  # a newer stroke, or another collection (it counts as a request), made it stale
+        if result.error:
+            self.failed.emit(result.error)
+            return
+        self.model.set_preview(result.index, result.file_labels)
+        self.last_seconds = result.seconds
+        self.done.emit(result.index, result.seconds)
+
+    def _on_collection_changed(self) -> None:
+        self._requested += 1  # a pending preview belongs to the old collection
+        self._arrived = self._requested
+        self._models = None
+        if self._worker is not None:
+            self._worker.reset()
+
+    def close(self, timeout: float = 5.0) -> bool:
+        return self._worker.close(timeout) if self._worker is not None else True

@@ -1,6 +1,7 @@
-"""What the app's worker thread runs: the core's :func:`collection_run`, on one thread.
+"""What a run's job thread executes: the core's :func:`collection_run` and
+:func:`predict_run`, on one torch thread so the renderer keeps the other core.
 
-Re-exports the pipeline's messages so the window imports them from one place.
+Re-exports the pipeline's messages so the controllers import them from one place.
 """
 
 from __future__ import annotations
@@ -56,8 +57,8 @@ def collection_run(
     params: SegmentParams = SegmentParams(),
 ) -> Iterator[FeaturesDone | StepDone | Predicted]:
     """:func:`scribbleseg_core.engine.pipeline.collection_run` with torch on one thread, so the
-    renderer keeps the other core. A generator function itself (``yield from``): superqt's
-    ``thread_worker`` only makes a streaming worker of generator functions."""
+    renderer keeps the other core. A generator function itself (``yield from``), so that its
+    job streams the messages."""
     params = replace(params, network=replace(params.network, threads=1))
     yield from _collection_run(meshes, scribbles, label_names, params)
 

@@ -1,0 +1,222 @@
+"""Segmentation and prediction runs: one at a time, each bound to the collection it began on.
+
+:class:`RunController` starts a job on the core's pipeline
+(:mod:`~scribbleseg_app.controllers.engine_runs`), applies what it streams to the model on the
+main thread, and keeps the energy of every step (:class:`EnergyHistory`) for the plot. A run's
+results never reach another collection: opening one cancels the run, and the job's late
+messages are dropped. A shape the user painted on after the run began keeps the preview of
+those newer strokes over the run's result.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scribbleseg_app.controllers.jobs import Dispatcher, Job
+from scribbleseg_app.events import Event
+
+
+@dataclass(frozen=True)
+class EnergyStep:
+    """One optimization step's energy: round `iteration`, `phase` ("train", "graphcut",
+    "context"), and its terms (the total is their sum; ``network`` NaN before training)."""
+
+    iteration: int
+    phase: str
+    scribble: float
+    network: float
+    smoothness: float
+
+    @property
+    def total(self) -> float:
+        return self.scribble + (0.0 if np.isnan(self.network) else self.network) + self.smoothness
+
+
+@dataclass
+class EnergyHistory:
+    """The energy steps of the latest run and the moments worth marking on the plot.
+
+    Attributes
+    ----------
+    steps : list of EnergyStep
+    marks : list of (int, str)
+        ``(number of steps before it, text)``: where signatures, rounds and prediction began.
+    """
+
+    steps: list[EnergyStep] = field(default_factory=list)
+    marks: list[tuple[int, str]] = field(default_factory=list)
+
+    def mark(self, text: str) -> None:
+        if not self.marks or self.marks[-1] != (len(self.steps), text):
+            self.marks.append((len(self.steps), text))
+
+
+class RunController:
+    """Runs the engine on the open collection in the background.
+
+    Events
+    ------
+    started(kind)
+        ``"segmentation"`` or ``"prediction"`` began.
+    progress(done, total)
+        Shapes prepared (signatures) or predicted so far.
+    step(snapshot)
+        An optimization step was applied to the model (:attr:`history` has its energy).
+    finished(message)
+        The run ended (also when stopped or cancelled); `message` says how.
+
+    Parameters
+    ----------
+    model : CollectionModel
+    dispatcher : Dispatcher
+    params : SegmentParams, optional
+        The engine's parameters (default ones when None).
+    """
+
+    def __init__(self, model, dispatcher: Dispatcher, params=None) -> None:
+        self.model = model
+        self.dispatcher = dispatcher
+        self.params = params
+        self.job: Job | None = None
+        self.kind: str | None = None
+        self.history = EnergyHistory()
+        self.changed: set[int] = set()  # shapes whose labels the last round changed
+        self.seconds = 0.0
+        self.started, self.progress, self.step, self.finished = Event(), Event(), Event(), Event()
+        self._indices: list[int] = []
+        self._edits: dict[int, int] = {}
+        self._generation = -1
+        self._started_at = 0.0
+        self._applied: set[int] = set()
+        model.collection_changed.connect(self._on_collection_changed)
+
+    @property
+    def running(self) -> bool:
+        return self.job is not None
+
+    @property
+    def size(self) -> int:
+        """Shapes in the run under way (or the last one)."""
+        return len(self._indices)
+
+    def segment(self) -> str | None:
+        """Segment the collection (shapes without scribbles take part). Returns why it
+        cannot start, or None when it started."""
+        from scribbleseg_app.controllers.engine_runs import LazyMeshes, collection_run
+
+        from scribbleseg_core.engine.optimize import SegmentParams
+
+        if self.running:
+            return "a run is under way"
+        m = self.model
+        usable = [i for i, e in enumerate(m.shapes) if e.state != "error"]
+        scribbles = [m.scribble_labels(i) for i in usable]
+        if not any(s is not None and (s >= 0).any() for s in scribbles):
+            return "paint at least one stroke before segmenting"
+        self.history = EnergyHistory()
+        self.history.mark("signatures")
+        self.changed = set()
+        meshes = LazyMeshes([m.shapes[i].mesh for i in usable])  # loaded by the job
+        self._start("segmentation", collection_run, (meshes, scribbles, m.label_set.names, self.params or SegmentParams()),
+                     usable)
+        return None
+
+    def predict(self) -> str | None:
+        """Segment the shapes with neither scribbles nor a result (e.g. meshes added after the
+        run) with the trained model. Returns why it cannot start, or None when it started
+        (also when there is nothing to predict: then it says so through `finished`)."""
+        from scribbleseg_app.controllers.engine_runs import LazyMeshes, predict_run
+
+        if self.running:
+            return "a run is under way"
+        m = self.model
+        if m.trained_model is None:
+            return "no trained network yet: paint some shapes and run 'Segment collection' first"
+        if len(m.trained_model.label_names) != len(m.label_set):
+            return "the labels changed since the network was trained: run 'Segment collection' again"
+        targets = [i for i, e in enumerate(m.shapes) if e.state == "untouched" and not m.has_scribbles(i)]
+        if not targets:
+            self.finished.emit("every shape already has scribbles or a result")
+            return None
+        self.history.mark("prediction")
+        meshes = LazyMeshes([m.shapes[i].mesh for i in targets])
+        self._start("prediction", predict_run, (m.trained_model, meshes), targets)
+        return None
+
+    def stop(self) -> None:
+        """Stop between two steps; the labels so far stay."""
+        if self.job is not None:
+            self.job.cancel()
+            self._end("stopped")
+
+    def shutdown(self, timeout: float = 10.0) -> bool:
+        """Cancel any run and wait for its thread (quitting); True when it ended in time."""
+        job = self.job
+        if job is None:
+            return True
+        job.cancel()
+        self._end("stopped: the app is closing")
+        return job.join(timeout)
+
+    def _start(self, kind: str, fn, args: tuple, indices: list[int]) -> None:
+        from scribbleseg_app.controllers.engine_runs import limit_threads
+
+        limit_threads(1)
+        m = self.model
+        self.kind, self._indices, self._applied = kind, indices, set()
+        self._edits = {i: m.shapes[i].edits for i in indices}
+        self._generation = m.generation
+        self._started_at = time.perf_counter()
+        self.job = Job(fn, args, dispatcher=self.dispatcher, on_item=self._on_message,
+                       on_error=lambda e: self._end(f"{kind} failed: {e}", error=True),
+                       on_finished=lambda: self._end("finished"), name=f"scribbleseg-{kind}")
+        self.started.emit(kind)
+        self.job.start()
+
+    def _end(self, how: str, error: bool = False) -> None:
+        if self.job is None:
+            return
+        self.job = None
+        self.seconds = time.perf_counter() - self._started_at
+        if how == "finished":
+            how = f"{self.kind} finished in {self.seconds:.1f} s"
+        self.finished.emit(("error: " if error else "") + how)
+
+    def _on_collection_changed(self) -> None:
+        if self.job is not None:  # its shapes and labels are the previous collection's
+            self.job.cancel()
+            self._end("the run was stopped: another collection was opened")
+
+    def _on_message(self, msg) -> None:
+        from scribbleseg_app.controllers.engine_runs import FeaturesDone, Predicted, StepDone
+
+        m = self.model
+        if self._generation != m.generation:
+            return  # belt and braces: a cancelled job's messages are dropped already
+        if isinstance(msg, FeaturesDone):
+            self.progress.emit(msg.done, msg.total)
+        elif isinstance(msg, StepDone):
+            snap = msg.snapshot
+            if snap.phase in ("graphcut", "context"):
+                self.changed = {self._indices[j] for j in msg.indices if snap.changed[j]}
+            for j, labels in zip(msg.indices, msg.file_labels):
+                if j in self._applied and not snap.changed[j]:
+                    continue  # the same labels as the step before
+                self._applied.add(j)
+                index = self._indices[j]
+                m.set_result(index, labels, "labeled" if m.has_scribbles(index) else "predicted", self._edits[index])
+            if snap.iteration >= 1 and snap.phase in ("train", "graphcut", "context"):
+                if snap.phase == "train":
+                    self.history.mark(f"round {snap.iteration}")
+                elif snap.phase == "context":
+                    self.history.mark("context")
+                e = snap.energy
+                self.history.steps.append(EnergyStep(snap.iteration, snap.phase, e.scribble, e.network, e.smoothness))
+            if snap.done:
+                m.trained_model = snap.model
+            self.step.emit(snap)
+        elif isinstance(msg, Predicted):
+            index = self._indices[msg.index]
+            m.set_result(index, msg.file_labels, "predicted", self._edits[index])

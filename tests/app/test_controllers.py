@@ -1,0 +1,299 @@
+"""The app's controllers without Qt or a display: results are applied on the 'main thread'
+only when the test drains the dispatcher, so every interleaving below is deterministic."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+from scribbleseg_app.controllers.files import FilesController
+from scribbleseg_app.controllers.frames import FrameClock
+from scribbleseg_app.controllers.jobs import Job, QueueDispatcher
+from scribbleseg_app.controllers.preview import PreviewController, PreviewEngine
+from scribbleseg_app.controllers.run import RunController
+from scribbleseg_app.controllers.view import ViewController
+from scribbleseg_app.model import CollectionModel
+
+from scribbleseg_core.engine.energy import EnergyTerms
+from scribbleseg_core.engine.optimize import Snapshot
+from scribbleseg_core.engine.pipeline import FeaturesDone, StepDone
+from tests.conftest import icosphere, write_off
+
+
+def _folder(tmp_path, name, n=3):
+    V, F = icosphere(1)
+    folder = tmp_path / name
+    folder.mkdir()
+    for i in range(n):
+        write_off(folder / f"s{i}.off", V, F)
+    return folder
+
+
+@pytest.fixture
+def setup(tmp_path):
+    model = CollectionModel(tmp_path / "autosave")
+    errors = []
+    model.error.connect(errors.append)
+    model.open(_folder(tmp_path, "a"))
+    model.add_label("a")
+    model.add_label("b")
+    return model, QueueDispatcher(), errors
+
+
+def until(condition, dispatcher, timeout=20.0):
+    """Drain the dispatcher until `condition()` holds (the main thread's event loop)."""
+    end = time.perf_counter() + timeout
+    while time.perf_counter() < end:
+        dispatcher.drain()
+        if condition():
+            return
+        time.sleep(0.005)
+    raise AssertionError("timed out")
+
+
+class FakeRun:
+    """Stands in for the pipeline's ``collection_run``: features, then (once `gate` is set) one
+    cut labelling every shape with `label`, then the end with a model."""
+
+    def __init__(self, label=1):
+        self.gate, self.label, self.closed = threading.Event(), label, threading.Event()
+
+    def __call__(self, meshes, scribbles, names, params):
+        n = len(meshes)
+        try:
+            yield FeaturesDone(0, 1, n)
+            assert self.gate.wait(10)
+            labels = tuple(np.full(meshes[i].num_file_faces, self.label) for i in range(n))
+            e = EnergyTerms(3.0, 2.0, 1.0)
+            yield StepDone(Snapshot(1, "graphcut", e, labels, (True,) * n, 0.1, "model"), tuple(range(n)), labels)
+            yield StepDone(Snapshot(1, "done", e, labels, (False,) * n, 0.2, "model"), tuple(range(n)), labels)
+        finally:
+            self.closed.set()
+
+
+@pytest.fixture
+def fake_run(monkeypatch):
+    fake = FakeRun()
+    monkeypatch.setattr("scribbleseg_app.controllers.engine_runs.collection_run", fake)
+    return fake
+
+
+def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
+    model, dispatcher, _ = setup
+    model.paint_faces(0, [0, 1, 2], 0)
+    runs = RunController(model, dispatcher)
+    ended = []
+    runs.finished.connect(ended.append)
+    assert runs.segment() is None and runs.running
+    assert runs.segment() == "a run is under way"
+    fake_run.gate.set()
+    until(lambda: ended, dispatcher)
+    assert ended[0].startswith("segmentation finished in")
+    assert [e.state for e in model.shapes] == ["labeled", "predicted", "predicted"]
+    assert all((e.labels == 1).all() for e in model.shapes) and model.trained_model == "model"
+    assert [(s.phase, s.total) for s in runs.history.steps] == [("graphcut", 6.0)]
+    assert runs.changed == {0, 1, 2} and ("signatures" in dict((t, a) for a, t in runs.history.marks))
+
+
+def test_nothing_to_segment_says_why(setup):
+    model, dispatcher, _ = setup
+    assert "paint at least one stroke" in RunController(model, dispatcher).segment()
+    assert "no trained network" in RunController(model, dispatcher).predict()
+
+
+def test_a_run_never_writes_into_a_collection_opened_after_it(setup, fake_run, tmp_path):
+    model, dispatcher, _ = setup
+    model.paint_faces(0, [0, 1, 2], 0)
+    runs = RunController(model, dispatcher)
+    ended = []
+    runs.finished.connect(ended.append)
+    runs.segment()
+    until(lambda: runs.progress and True, dispatcher)
+    model.open(_folder(tmp_path, "b"))  # while the run is under way
+    assert not runs.running and "another collection was opened" in ended[0]
+    fake_run.gate.set()
+    assert fake_run.closed.wait(10)  # the job saw the cancel and closed the generator
+    dispatcher.drain()
+    assert all(e.labels is None and e.state == "untouched" for e in model.shapes)
+    assert model.trained_model is None and len(ended) == 1
+
+
+def test_quitting_during_a_run_waits_for_its_thread_and_applies_nothing(setup, fake_run):
+    model, dispatcher, _ = setup
+    model.paint_faces(0, [0, 1, 2], 0)
+    runs = RunController(model, dispatcher)
+    runs.segment()
+    job = runs.job
+    threading.Timer(0.2, fake_run.gate.set).start()  # the step under way ends a moment later
+    assert runs.shutdown(timeout=10)
+    assert not job.running and fake_run.closed.is_set()
+    dispatcher.drain()
+    assert all(e.labels is None for e in model.shapes) and model.trained_model is None
+
+
+def test_a_result_does_not_hide_the_preview_of_strokes_made_during_the_run(setup, fake_run):
+    model, dispatcher, _ = setup
+    model.paint_faces(0, [0, 1, 2], 0)
+    runs = RunController(model, dispatcher)
+    runs.segment()
+    model.paint_faces(1, [5, 6], 1)  # painted while the run works on the strokes before it
+    newer = np.zeros(model.shapes[1].mesh().num_file_faces, np.int64)
+    model.set_preview(1, newer)
+    fake_run.gate.set()
+    until(lambda: not runs.running, dispatcher)
+    assert (model.shapes[1].labels == 1).all()  # the run's result is kept ...
+    np.testing.assert_array_equal(model.shown_labels(1), newer)  # ... under the newer preview
+    assert model.shapes[0].preview is None and (model.shown_labels(0) == 1).all()
+
+
+def test_the_latest_preview_wins_and_a_late_one_is_dropped(setup, tmp_path):
+    model, dispatcher, _ = setup
+    started, gate = threading.Event(), threading.Event()
+
+    class Slow(PreviewEngine):
+        def compute(self, req):
+            started.set()
+            assert gate.wait(10)
+            return np.full(req.mesh.num_file_faces, req.generation, np.int64)
+
+    previews = PreviewController(model, dispatcher, Slow())
+    try:
+        model.paint_faces(0, [0, 1], 0)  # request 1: the worker takes it and blocks
+        assert started.wait(10)
+        model.paint_faces(0, [2, 3], 1)  # request 2 replaces nothing started: it waits
+        model.paint_faces(0, [4, 5], 1)  # request 3 replaces request 2
+        assert not previews.idle
+        gate.set()
+        until(lambda: previews.idle, dispatcher)
+        assert (model.shapes[0].preview == 3).all()  # request 1's result came back stale
+        gate.clear()
+        started.clear()
+        model.paint_faces(1, [0, 1], 0)
+        assert started.wait(10)
+        model.open(_folder(tmp_path, "b"))  # the preview under way belongs to the old collection
+        gate.set()
+        time.sleep(0.1)
+        dispatcher.drain()
+        assert previews.idle and all(e.preview is None for e in model.shapes)
+    finally:
+        gate.set()
+        previews.close()
+
+
+def test_preview_caches_stay_bounded_over_many_collections(setup, tmp_path):
+    model, dispatcher, _ = setup
+    previews = PreviewController(model, dispatcher)
+    try:
+        for cycle in range(6):
+            model.open(_folder(tmp_path, f"c{cycle}", n=2))
+            model.add_label("a")
+            for i in range(2):
+                model.paint_faces(i, [0, 1], 0)
+                until(lambda: previews.idle, dispatcher)
+            assert previews.engine.cached_meshes() <= 2  # the last collection's only: the old ones were released
+    finally:
+        previews.close()
+
+
+class FakeViewport:
+    def __init__(self):
+        self.shown, self.colored = [], []
+
+    def show(self, V, F, colors):
+        self.shown.append((len(F), colors))
+
+    def set_colors(self, colors):
+        self.colored.append(colors)
+
+
+def test_the_view_loads_meshes_off_the_main_thread_and_recolours_in_place(tmp_path):
+    folder = _folder(tmp_path, "v", n=2)
+    (folder / "bad.off").write_text("OFF\n3 1 0\n0 0 0\n")  # sorts first
+    model = CollectionModel(tmp_path / "autosave")
+    errors = []
+    model.error.connect(errors.append)
+    dispatcher, viewport = QueueDispatcher(), FakeViewport()
+    view = ViewController(model, dispatcher, viewport)
+    model.open(folder)  # shows shape 0, bad.off: its load fails in the background
+    assert model.shapes[0].state != "error" and not viewport.shown
+    until(lambda: model.shapes[0].state == "error", dispatcher)
+    assert "bad.off" in errors[0] and "truncated" in errors[0] and not viewport.shown
+    model.set_current(1)
+    until(lambda: viewport.shown, dispatcher)
+    model.add_label("a")
+    before = len(viewport.colored)
+    model.paint_faces(1, [0, 1, 2], 0)
+    assert len(viewport.colored) > before and len(viewport.shown) == 1  # colours updated, mesh not re-sent
+    assert (viewport.colored[-1][[0, 1, 2]] != viewport.colored[-1][3]).any()
+    view.set_mode("Feature: SDF")  # computed in the background; the labels show meanwhile
+    until(lambda: view.feature_values(1, 1) is not None, dispatcher, timeout=60)
+    assert viewport.colored[-1].std(axis=0).max() > 0 and "SDF =" in view.hover_text(4)
+
+
+def test_a_session_saves_off_the_main_thread_and_later_edits_stay_unsaved(setup, tmp_path):
+    from scribbleseg_core.store.session import load_session
+
+    model, dispatcher, _ = setup
+    files = FilesController(model, dispatcher)
+    saved = []
+    files.saved.connect(lambda folder, skipped: saved.append(folder))
+    model.paint_faces(0, [0, 1, 2], 1)
+    assert files.save(tmp_path / "session")
+    model.paint_faces(1, [3], 0)  # after the snapshot was taken
+    until(lambda: saved, dispatcher)
+    assert model.unsaved and model.session_path == tmp_path / "session"
+    session = load_session(tmp_path / "session")
+    assert (session.shapes[0].scribble[:3] == 1).all()
+    assert session.shapes[1].scribble is None or (session.shapes[1].scribble == -1).all()  # painted after the snapshot
+    assert files.save(tmp_path / "session", wait=True) and not model.unsaved
+    exported = []
+    files.exported.connect(lambda folder, paths: exported.append(paths))
+    files.export(tmp_path / "out")
+    until(lambda: exported, dispatcher)
+    assert sorted(p.name for p in exported[0] if p.suffix == ".ply") == ["s0.ply", "s1.ply"]  # s2 has nothing
+
+
+def test_the_frame_clock_renders_on_change_and_slowly_when_idle():
+    now = [0.0]
+    clock = FrameClock(lambda: now[0], active_s=1.0, busy_interval=0.05, idle_interval=0.3)
+    assert clock.due()
+    clock.rendered()
+    now[0] = 0.1
+    assert not clock.due()  # idle: next frame at 0.3
+    clock.wake()  # a change or input: full rate for a second
+    assert clock.due()
+    clock.rendered()
+    now[0] = 0.12
+    assert clock.due()  # still active
+    now[0] = 1.15
+    assert clock.due()  # idle again, and the last frame was long ago
+    clock.rendered()
+    assert clock.max_gap == pytest.approx(1.05)
+    now[0] = 1.2
+    assert not clock.due()
+    clock.busy = True  # a run streams results: every 50 ms
+    assert clock.due()
+
+
+def test_a_cancelled_job_reports_nothing():
+    dispatcher, got = QueueDispatcher(), []
+    gate = threading.Event()
+
+    def items():
+        yield 1
+        gate.wait(10)
+        yield 2
+
+    job = Job(items, dispatcher=dispatcher, on_item=got.append, on_finished=lambda: got.append("end")).start()
+    until(lambda: got == [1], dispatcher)
+    job.cancel()
+    gate.set()
+    assert job.join(10)
+    dispatcher.drain()
+    assert got == [1]
+    failing = Job(lambda: 1 / 0, dispatcher=dispatcher, on_error=got.append).start()
+    failing.join(10)
+    dispatcher.drain()
+    assert isinstance(got[-1], ZeroDivisionError)
