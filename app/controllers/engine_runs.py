@@ -16,9 +16,9 @@ from scribbleseg_core.engine.optimize import SegmentParams
 from scribbleseg_core.engine.pipeline import FeaturesDone, Predicted, StepDone
 from scribbleseg_core.engine.pipeline import collection_run as _collection_run
 from scribbleseg_core.engine.pipeline import predict_run as _predict_run
-from scribbleseg_core.formats.mesh import Mesh
+from scribbleseg_core.formats.mesh import Mesh, load_mesh
 
-__all__ = ["FeaturesDone", "LazyMeshes", "Predicted", "StepDone", "collection_run", "limit_threads", "predict_run"]
+__all__ = ["FeaturesDone", "MeshFiles", "Predicted", "StepDone", "collection_run", "limit_threads", "predict_run"]
 
 
 def limit_threads(n: int = 1) -> None:
@@ -33,21 +33,26 @@ def limit_threads(n: int = 1) -> None:
         pass
 
 
-class LazyMeshes(Sequence):
-    """Meshes loaded on first access, in whichever thread asks: the worker, so the GUI
-    thread never waits for a file. `loaders` are callables returning a Mesh (e.g.
-    ``ShapeEntry.mesh``, which caches)."""
+class MeshFiles(Sequence):
+    """Meshes read from `paths` on first access (and kept), in the process that asks: a run's
+    child process reads its own copies, so only paths cross to it."""
 
-    def __init__(self, loaders: Sequence[Callable[[], Mesh]]) -> None:
-        self._loaders = list(loaders)
+    def __init__(self, paths: Sequence[str | os.PathLike]) -> None:
+        self.paths = [str(p) for p in paths]
+        self._meshes: dict[int, Mesh] = {}
 
     def __len__(self) -> int:
-        return len(self._loaders)
+        return len(self.paths)
 
     def __getitem__(self, i):
         if isinstance(i, slice):
             return [self[j] for j in range(*i.indices(len(self)))]
-        return self._loaders[i]()
+        if i not in self._meshes:
+            self._meshes[i] = load_mesh(self.paths[i])
+        return self._meshes[i]
+
+    def __getstate__(self):
+        return {"paths": self.paths, "_meshes": {}}
 
 
 def collection_run(
@@ -59,10 +64,12 @@ def collection_run(
     """:func:`scribbleseg_core.engine.pipeline.collection_run` with torch on one thread, so the
     renderer keeps the other core. A generator function itself (``yield from``), so that its
     job streams the messages."""
+    limit_threads(1)
     params = replace(params, network=replace(params.network, threads=1))
     yield from _collection_run(meshes, scribbles, label_names, params)
 
 
 def predict_run(model, meshes: Sequence[Mesh]) -> Iterator[FeaturesDone | Predicted]:
     """:func:`scribbleseg_core.engine.pipeline.predict_run` on one torch thread (see above)."""
+    limit_threads(1)
     yield from _predict_run(replace(model, learner=model.learner.with_threads(1)), meshes)

@@ -9,6 +9,7 @@ signal in the app, a queue the test drains (:class:`QueueDispatcher`) in tests.
 from __future__ import annotations
 
 import inspect
+import pickle
 import queue
 import threading
 from collections.abc import Callable
@@ -130,3 +131,90 @@ class Job:
         except Exception as e:  # reported on the main thread; a job never takes the app down
             self._post(self._on_error, e)
         self._post(self._on_finished)
+
+
+def _child(fn, args, out) -> None:
+    """The child process of a :class:`ProcessJob`: run `fn`, send what it gives through `out`.
+    Items go as plain pickles (bytes): the queue's own pickler would hand torch tensors over in
+    shared memory that vanishes with the child."""
+    import inspect as _inspect
+    import pickle
+
+    try:
+        result = fn(*args)
+        if _inspect.isgenerator(result):
+            for item in result:
+                out.put(("item", pickle.dumps(item, protocol=pickle.HIGHEST_PROTOCOL)))
+        else:
+            out.put(("done", pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)))
+    except Exception as e:  # sent as text: an exception object need not pickle
+        out.put(("error", f"{type(e).__name__}: {e}" if not str(e).startswith(type(e).__name__) else str(e)))
+    out.put(("end", None))
+
+
+class ProcessJob(Job):
+    """A :class:`Job` whose function runs in a child process (``spawn``), so that its work
+    never holds this process's interpreter lock: the viewport keeps its frames while C
+    extensions that do not release the lock (graph cuts, geodesics, ray casts) run.
+
+    `fn` and `args` cross to the child by pickling: `fn` must be a module-level function and
+    `args` plain data (paths rather than open meshes). Items and the result cross back the
+    same way. :meth:`cancel` ends the child at once; a job that dies without finishing reports
+    an error.
+    """
+
+    def __init__(self, fn, args=(), **kwargs) -> None:
+        import multiprocessing
+
+        super().__init__(fn, args, **kwargs)
+        ctx = multiprocessing.get_context("spawn")
+        self._out = ctx.Queue()
+        self._process = ctx.Process(target=_child, args=(fn, self._args, self._out), daemon=True,
+                                    name=self._thread.name)
+        self._thread = threading.Thread(target=self._read, name=f"{self._thread.name}-reader", daemon=True)
+
+    def start(self) -> ProcessJob:
+        self._process.start()
+        self._thread.start()
+        return self
+
+    def cancel(self) -> None:
+        super().cancel()
+        if self._process.is_alive():
+            self._process.terminate()
+
+    def join(self, timeout: float | None = None) -> bool:
+        self._process.join(timeout)
+        return super().join(timeout) and not self._process.is_alive()
+
+    def _read(self) -> None:
+        try:
+            self._read_all()
+        except Exception as e:  # e.g. an item that does not unpickle: end the child, report it
+            if self._process.is_alive():
+                self._process.terminate()
+            self._post(self._on_error, e)
+            self._post(self._on_finished)
+
+    def _read_all(self) -> None:
+        while True:
+            try:
+                kind, value = self._out.get(timeout=0.2)
+            except queue.Empty:
+                if self._process.is_alive():
+                    continue
+                if not self._cancelled.is_set():
+                    code = self._process.exitcode
+                    self._post(self._on_error, RuntimeError(f"the worker process ended unexpectedly (exit code {code})"))
+                    self._post(self._on_finished)
+                return
+            if kind == "item":
+                self._post(self._on_item, pickle.loads(value))  # from our own child process
+            elif kind == "done":
+                self._post(self._on_done, pickle.loads(value))
+            elif kind == "error":
+                self._post(self._on_error, RuntimeError(value))
+            else:  # "end"
+                self._post(self._on_finished)
+                self._process.join(5)
+                return

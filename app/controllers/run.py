@@ -14,7 +14,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scribbleseg_app.controllers.jobs import Dispatcher, Job
+from scribbleseg_app.controllers.jobs import Dispatcher, Job, ProcessJob
 from scribbleseg_app.events import Event
 
 
@@ -73,12 +73,16 @@ class RunController:
     dispatcher : Dispatcher
     params : SegmentParams, optional
         The engine's parameters (default ones when None).
+    job : type
+        How a run executes: :class:`ProcessJob` (default; in a child process, so the viewport
+        never waits for the run's interpreter lock) or :class:`Job` (a thread of this process).
     """
 
-    def __init__(self, model, dispatcher: Dispatcher, params=None) -> None:
+    def __init__(self, model, dispatcher: Dispatcher, params=None, job: type[Job] = ProcessJob) -> None:
         self.model = model
         self.dispatcher = dispatcher
         self.params = params
+        self._job_type = job
         self.job: Job | None = None
         self.kind: str | None = None
         self.history = EnergyHistory()
@@ -104,7 +108,7 @@ class RunController:
     def segment(self) -> str | None:
         """Segment the collection (shapes without scribbles take part). Returns why it
         cannot start, or None when it started."""
-        from scribbleseg_app.controllers.engine_runs import LazyMeshes, collection_run
+        from scribbleseg_app.controllers.engine_runs import MeshFiles, collection_run
 
         from scribbleseg_core.engine.optimize import SegmentParams
 
@@ -118,7 +122,7 @@ class RunController:
         self.history = EnergyHistory()
         self.history.mark("signatures")
         self.changed = set()
-        meshes = LazyMeshes([m.shapes[i].mesh for i in usable])  # loaded by the job
+        meshes = MeshFiles([m.shapes[i].path for i in usable])  # read by the run itself
         self._start("segmentation", collection_run, (meshes, scribbles, m.label_set.names, self.params or SegmentParams()),
                      usable)
         return None
@@ -127,7 +131,7 @@ class RunController:
         """Segment the shapes with neither scribbles nor a result (e.g. meshes added after the
         run) with the trained model. Returns why it cannot start, or None when it started
         (also when there is nothing to predict: then it says so through `finished`)."""
-        from scribbleseg_app.controllers.engine_runs import LazyMeshes, predict_run
+        from scribbleseg_app.controllers.engine_runs import MeshFiles, predict_run
 
         if self.running:
             return "a run is under way"
@@ -141,7 +145,7 @@ class RunController:
             self.finished.emit("every shape already has scribbles or a result")
             return None
         self.history.mark("prediction")
-        meshes = LazyMeshes([m.shapes[i].mesh for i in targets])
+        meshes = MeshFiles([m.shapes[i].path for i in targets])
         self._start("prediction", predict_run, (m.trained_model, meshes), targets)
         return None
 
@@ -169,7 +173,7 @@ class RunController:
         self._edits = {i: m.shapes[i].edits for i in indices}
         self._generation = m.generation
         self._started_at = time.perf_counter()
-        self.job = Job(fn, args, dispatcher=self.dispatcher, on_item=self._on_message,
+        self.job = self._job_type(fn, args, dispatcher=self.dispatcher, on_item=self._on_message,
                        on_error=lambda e: self._end(f"{kind} failed: {e}", error=True),
                        on_finished=lambda: self._end("finished"), name=f"scribbleseg-{kind}")
         self.started.emit(kind)

@@ -161,7 +161,17 @@ def _dropout_layer():
             clone.training = self.training
             return clone
 
+        def __reduce__(self):  # pickled through a module-level function: the class is made at run time
+            return _mask_dropout, (self.p, self.rng, self.training)
+
     return MaskDropout
+
+
+def _mask_dropout(p: float, rng: np.random.Generator, training: bool):
+    """A dropout module as pickled (see ``MaskDropout.__reduce__``)."""
+    module = _dropout_layer()(p, rng)
+    module.train(training)
+    return module
 
 
 class FaceClassifier:

@@ -83,7 +83,7 @@ def fake_run(monkeypatch):
 def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
     model, dispatcher, _ = setup
     model.paint_faces(0, [0, 1, 2], 0)
-    runs = RunController(model, dispatcher)
+    runs = RunController(model, dispatcher, job=Job)
     ended = []
     runs.finished.connect(ended.append)
     assert runs.segment() is None and runs.running
@@ -99,14 +99,14 @@ def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
 
 def test_nothing_to_segment_says_why(setup):
     model, dispatcher, _ = setup
-    assert "paint at least one stroke" in RunController(model, dispatcher).segment()
-    assert "no trained network" in RunController(model, dispatcher).predict()
+    assert "paint at least one stroke" in RunController(model, dispatcher, job=Job).segment()
+    assert "no trained network" in RunController(model, dispatcher, job=Job).predict()
 
 
 def test_a_run_never_writes_into_a_collection_opened_after_it(setup, fake_run, tmp_path):
     model, dispatcher, _ = setup
     model.paint_faces(0, [0, 1, 2], 0)
-    runs = RunController(model, dispatcher)
+    runs = RunController(model, dispatcher, job=Job)
     ended = []
     runs.finished.connect(ended.append)
     runs.segment()
@@ -123,7 +123,7 @@ def test_a_run_never_writes_into_a_collection_opened_after_it(setup, fake_run, t
 def test_quitting_during_a_run_waits_for_its_thread_and_applies_nothing(setup, fake_run):
     model, dispatcher, _ = setup
     model.paint_faces(0, [0, 1, 2], 0)
-    runs = RunController(model, dispatcher)
+    runs = RunController(model, dispatcher, job=Job)
     runs.segment()
     job = runs.job
     threading.Timer(0.2, fake_run.gate.set).start()  # the step under way ends a moment later
@@ -136,7 +136,7 @@ def test_quitting_during_a_run_waits_for_its_thread_and_applies_nothing(setup, f
 def test_a_result_does_not_hide_the_preview_of_strokes_made_during_the_run(setup, fake_run):
     model, dispatcher, _ = setup
     model.paint_faces(0, [0, 1, 2], 0)
-    runs = RunController(model, dispatcher)
+    runs = RunController(model, dispatcher, job=Job)
     runs.segment()
     model.paint_faces(1, [5, 6], 1)  # painted while the run works on the strokes before it
     newer = np.zeros(model.shapes[1].mesh().num_file_faces, np.int64)
@@ -275,6 +275,39 @@ def test_the_frame_clock_renders_on_change_and_slowly_when_idle():
     assert not clock.due()
     clock.busy = True  # a run streams results: every 50 ms
     assert clock.due()
+
+
+def _count(n, fail_at=None):
+    """A generator function for a child process: 0 .. n-1, or an error at `fail_at`."""
+    for i in range(n):
+        if i == fail_at:
+            raise ValueError(f"no {i}")
+        yield np.full(3, i)
+
+
+def _sleep(seconds):
+    time.sleep(seconds)
+    return "woke"
+
+
+def test_a_process_job_streams_from_a_child_and_ends_it_on_cancel():
+    from scribbleseg_app.controllers.jobs import ProcessJob
+
+    dispatcher, got = QueueDispatcher(), []
+    ProcessJob(_count, (3,), dispatcher=dispatcher, on_item=got.append, on_finished=lambda: got.append("end")).start()
+    until(lambda: got and isinstance(got[-1], str), dispatcher, timeout=60)
+    assert [int(a[0]) for a in got[:-1]] == [0, 1, 2]
+    errors = []
+    ProcessJob(_count, (3, 1), dispatcher=dispatcher, on_item=got.append, on_error=errors.append).start()
+    until(lambda: errors, dispatcher, timeout=60)
+    assert "ValueError: no 1" in str(errors[0])
+    job = ProcessJob(_sleep, (60,), dispatcher=dispatcher, on_done=got.append, on_error=errors.append).start()
+    time.sleep(0.5)
+    t = time.perf_counter()
+    job.cancel()
+    assert job.join(10) and time.perf_counter() - t < 5  # the child is ended, not waited for
+    dispatcher.drain()
+    assert not any(isinstance(g, str) and g == "woke" for g in got) and len(errors) == 1
 
 
 def test_a_cancelled_job_reports_nothing():
