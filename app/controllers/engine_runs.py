@@ -7,7 +7,7 @@ Re-exports the pipeline's messages so the controllers import them from one place
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import replace
 
 import numpy as np

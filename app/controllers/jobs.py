@@ -133,88 +133,110 @@ class Job:
         self._post(self._on_finished)
 
 
-def _child(fn, args, out) -> None:
-    """The child process of a :class:`ProcessJob`: run `fn`, send what it gives through `out`.
-    Items go as plain pickles (bytes): the queue's own pickler would hand torch tensors over in
-    shared memory that vanishes with the child."""
-    import inspect as _inspect
-    import pickle
+def _send(out, kind: str, value) -> None:
+    """One message of a child process: its length, then the pickle of (kind, value)."""
+    data = pickle.dumps((kind, value), protocol=pickle.HIGHEST_PROTOCOL)
+    out.write(len(data).to_bytes(8, "little"))
+    out.write(data)
+    out.flush()
 
+
+def _child_main() -> None:
+    """A :class:`ProcessJob`'s child (``python -m scribbleseg_app.controllers.jobs``): reads
+    the pickled ``(fn, args)`` from stdin, runs it, and writes its messages to what was stdout
+    (stdout itself then goes to stderr, so a stray print cannot corrupt a message)."""
+    import os
+    import sys
+
+    out = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)
+    fn, args = pickle.loads(sys.stdin.buffer.read())  # from the parent that started this process
     try:
         result = fn(*args)
-        if _inspect.isgenerator(result):
+        if inspect.isgenerator(result):
             for item in result:
-                out.put(("item", pickle.dumps(item, protocol=pickle.HIGHEST_PROTOCOL)))
+                _send(out, "item", item)
         else:
-            out.put(("done", pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)))
+            _send(out, "done", result)
     except Exception as e:  # sent as text: an exception object need not pickle
-        out.put(("error", f"{type(e).__name__}: {e}" if not str(e).startswith(type(e).__name__) else str(e)))
-    out.put(("end", None))
+        _send(out, "error", f"{type(e).__name__}: {e}")
+    _send(out, "end", None)
 
 
 class ProcessJob(Job):
-    """A :class:`Job` whose function runs in a child process (``spawn``), so that its work
-    never holds this process's interpreter lock: the viewport keeps its frames while C
-    extensions that do not release the lock (graph cuts, geodesics, ray casts) run.
+    """A :class:`Job` whose function runs in a child Python process, so that its work never
+    holds this process's interpreter lock: the viewport keeps its frames while C extensions
+    that do not release the lock (graph cuts, geodesics, ray casts) run.
 
-    `fn` and `args` cross to the child by pickling: `fn` must be a module-level function and
-    `args` plain data (paths rather than open meshes). Items and the result cross back the
-    same way. :meth:`cancel` ends the child at once; a job that dies without finishing reports
-    an error.
+    `fn` and `args` cross to the child by pickling (`fn` must be a module-level function;
+    `args` plain data: paths rather than open meshes), and items and the result cross back the
+    same way, between this process and the child it started. :meth:`cancel` ends the child at
+    once; a child that dies without finishing is reported as an error.
     """
 
     def __init__(self, fn, args=(), **kwargs) -> None:
-        import multiprocessing
-
         super().__init__(fn, args, **kwargs)
-        ctx = multiprocessing.get_context("spawn")
-        self._out = ctx.Queue()
-        self._process = ctx.Process(target=_child, args=(fn, self._args, self._out), daemon=True,
-                                    name=self._thread.name)
+        self._process = None
         self._thread = threading.Thread(target=self._read, name=f"{self._thread.name}-reader", daemon=True)
 
     def start(self) -> ProcessJob:
-        self._process.start()
+        import os
+        import subprocess
+        import sys
+
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+        self._process = subprocess.Popen([sys.executable, "-m", "scribbleseg_app.controllers.jobs"],
+                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
         self._thread.start()
         return self
 
     def cancel(self) -> None:
         super().cancel()
-        if self._process.is_alive():
-            self._process.terminate()
+        if self._process is not None and self._process.poll() is None:
+            self._process.kill()
 
     def join(self, timeout: float | None = None) -> bool:
-        self._process.join(timeout)
-        return super().join(timeout) and not self._process.is_alive()
+        if self._process is not None:
+            try:
+                self._process.wait(timeout)
+            except Exception:  # subprocess.TimeoutExpired
+                return False
+        return super().join(timeout)
 
     def _read(self) -> None:
         try:
             self._read_all()
         except Exception as e:  # e.g. an item that does not unpickle: end the child, report it
-            if self._process.is_alive():
-                self._process.terminate()
+            if self._process.poll() is None:
+                self._process.kill()
             self._post(self._on_error, e)
             self._post(self._on_finished)
 
     def _read_all(self) -> None:
+        proc = self._process
+        proc.stdin.write(pickle.dumps((self._fn, self._args), protocol=pickle.HIGHEST_PROTOCOL))
+        proc.stdin.close()
+        stream = proc.stdout
         while True:
-            try:
-                kind, value = self._out.get(timeout=0.2)
-            except queue.Empty:
-                if self._process.is_alive():
-                    continue
+            head = stream.read(8)
+            if len(head) < 8:  # the child ended without saying so: killed, or it crashed
+                code = proc.wait()
                 if not self._cancelled.is_set():
-                    code = self._process.exitcode
                     self._post(self._on_error, RuntimeError(f"the worker process ended unexpectedly (exit code {code})"))
                     self._post(self._on_finished)
                 return
+            kind, value = pickle.loads(stream.read(int.from_bytes(head, "little")))  # from our own child
             if kind == "item":
-                self._post(self._on_item, pickle.loads(value))  # from our own child process
+                self._post(self._on_item, value)
             elif kind == "done":
-                self._post(self._on_done, pickle.loads(value))
+                self._post(self._on_done, value)
             elif kind == "error":
                 self._post(self._on_error, RuntimeError(value))
             else:  # "end"
                 self._post(self._on_finished)
-                self._process.join(5)
+                proc.wait()
                 return
+
+
+if __name__ == "__main__":
+    _child_main()

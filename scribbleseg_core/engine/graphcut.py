@@ -43,7 +43,8 @@ def alpha_expansion(
 
     Each move lets any node switch to label α and is solved exactly as one min cut; a
     move is kept only if it lowers :func:`potts_energy`, so the energy never increases.
-    Sweeps over all labels repeat until none helps.
+    Sweeps over all labels repeat until none helps; a label is not tried again while the
+    labeling is the one it was last tried on (the move would be the same).
 
     Parameters
     ----------
@@ -73,15 +74,19 @@ def alpha_expansion(
         raise ValueError("pairwise weights must be non-negative")
     labels = np.argmin(unary, axis=1) if init is None else np.asarray(init, dtype=np.int64).copy()
     energy = potts_energy(labels, unary, edges, weights)
+    allowed = [alpha for alpha in range(k) if not np.all(unary[:, alpha] >= INF)]
+    changes, tried = 0, {}  # labelings kept so far; label -> `changes` when it was last tried
     for _ in range(max_sweeps):
         improved = False
-        for alpha in range(k):
-            if np.all(unary[:, alpha] >= INF):
+        for alpha in allowed:
+            if tried.get(alpha) == changes:
                 continue
+            tried[alpha] = changes
             proposal = _expansion_move(labels, alpha, unary, edges, weights)
             e = potts_energy(proposal, unary, edges, weights)
             if e < energy - 1e-9 * max(1.0, abs(energy)):
                 labels, energy, improved = proposal, e, True
+                changes += 1
         if not improved:
             break
     return labels
