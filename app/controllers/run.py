@@ -42,15 +42,18 @@ class EnergyHistory:
     ----------
     steps : list of EnergyStep
     marks : list of (int, str)
-        ``(number of steps before it, text)``: where signatures, rounds and prediction began.
+        ``(number of steps before it, text)``: where each round, the label-context stage and a
+        prediction began. Steps start at the first cut, when every shape has labels.
     """
 
     steps: list[EnergyStep] = field(default_factory=list)
     marks: list[tuple[int, str]] = field(default_factory=list)
 
     def mark(self, text: str) -> None:
-        if not self.marks or self.marks[-1] != (len(self.steps), text):
-            self.marks.append((len(self.steps), text))
+        """Mark the next step; a mark not yet followed by a step is replaced."""
+        if self.marks and self.marks[-1][0] == len(self.steps):
+            self.marks.pop()
+        self.marks.append((len(self.steps), text))
 
 
 class RunController:
@@ -120,7 +123,6 @@ class RunController:
         if not any(s is not None and (s >= 0).any() for s in scribbles):
             return "paint at least one stroke before segmenting"
         self.history = EnergyHistory()
-        self.history.mark("signatures")
         self.changed = set()
         meshes = MeshFiles([m.shapes[i].path for i in usable])  # read by the run itself
         self._start("segmentation", collection_run, (meshes, scribbles, m.label_set.names, self.params or SegmentParams()),
@@ -211,8 +213,11 @@ class RunController:
                 self._applied.add(j)
                 index = self._indices[j]
                 m.set_result(index, labels, "labeled" if m.has_scribbles(index) else "predicted", self._edits[index])
-            if snap.iteration >= 1 and snap.phase in ("train", "graphcut", "context"):
-                if snap.phase == "train":
+            # from the first cut on: before it, the shapes without scribbles have no labels and
+            # no energy, so the first training's total is not comparable with the rest
+            first_cut = snap.iteration == 1 and snap.phase == "graphcut"
+            if snap.iteration >= 1 and snap.phase in ("train", "graphcut", "context") and (self.history.steps or first_cut):
+                if snap.phase == "train" or first_cut:
                     self.history.mark(f"round {snap.iteration}")
                 elif snap.phase == "context":
                     self.history.mark("context")

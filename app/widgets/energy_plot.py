@@ -16,7 +16,7 @@ LINES = (("total", "total", "#1f3b73"), ("scribble", "scribbles", "#d62728"),
 class EnergyPlot(QWidget):
     """Draws an :class:`~scribbleseg_app.controllers.run.EnergyHistory`: one line per term over
     the steps (x: step; y: energy, shared scale with its range on the axis), a dashed line where
-    signatures, each round, the context stage and prediction began."""
+    each round, the label-context stage and a prediction began."""
 
     def __init__(self, parent=None):
         super().__init__(parent)
@@ -71,12 +71,12 @@ class EnergyPlot(QWidget):
 
         marks = self.history.marks if self.history is not None else []
         dash = QPen(QColor("#999999"), 1, Qt.PenStyle.DashLine)
-        for at, text in marks:
+        for row, (at, text) in enumerate(marks):
             xm = px(min(max(at - 0.5, 0), n - 1))
             p.setPen(dash)
             p.drawLine(QPointF(xm, area.top()), QPointF(xm, area.bottom()))
-            p.setPen(QColor("#555555"))
-            p.drawText(QPointF(xm + 2, area.top() + fm.ascent()), text)
+            p.setPen(QColor("#555555"))  # alternate rows, so that close marks do not overlap
+            p.drawText(QPointF(xm + 2, area.top() + fm.ascent() + (row % 2) * fm.height()), text)
         for attr, _, color in LINES:
             pts = [QPointF(px(i), area.bottom() - area.height() * (getattr(s, attr) - lo) / span)
                    for i, s in enumerate(steps) if not math.isnan(getattr(s, attr))]

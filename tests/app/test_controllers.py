@@ -94,7 +94,7 @@ def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
     assert [e.state for e in model.shapes] == ["labeled", "predicted", "predicted"]
     assert all((e.labels == 1).all() for e in model.shapes) and model.trained_model == "model"
     assert [(s.phase, s.total) for s in runs.history.steps] == [("graphcut", 6.0)]
-    assert runs.changed == {0, 1, 2} and ("signatures" in dict((t, a) for a, t in runs.history.marks))
+    assert runs.changed == {0, 1, 2} and runs.history.marks == [(0, "round 1")]
 
 
 def test_nothing_to_segment_says_why(setup):
