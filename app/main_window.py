@@ -166,7 +166,7 @@ class MainWindow(QMainWindow):
         tools.show_combo.currentTextChanged.connect(self.view.set_mode)
         tools.paint_box.toggled.connect(lambda on: setattr(self.viewport, "paint_mode", on))
         tools.eraser_box.toggled.connect(lambda on: m.set_current_label(-1 if on else max(labels.list.currentRow(), 0)))
-        tools.brush_slider.valueChanged.connect(lambda v: setattr(m, "brush_radius", v / 1000.0))
+        tools.brush_slider.valueChanged.connect(lambda v: m.set_brush_radius(v / 1000.0))
         tools.preview_box.toggled.connect(self._on_preview_toggled)
         run.run_button.clicked.connect(lambda: self._report(self.runs.segment()))
         run.stop_button.clicked.connect(self.runs.stop)

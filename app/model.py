@@ -448,6 +448,17 @@ class CollectionModel:
             self.scribbles_changed.emit(self.current, np.zeros(0, np.int64))
         return erased
 
+    def set_brush_radius(self, radius: float) -> None:
+        """The brush's radius, as a fraction of the bounding-box diagonal (default 0.02)."""
+        if not radius > 0:
+            raise ValueError(f"brush radius must be positive; got {radius}")
+        self.brush_radius = float(radius)
+
+    def set_trained_model(self, model) -> None:
+        """The model a run trained (prediction and the preview use it); the work is unsaved."""
+        self.trained_model = model
+        self._set_unsaved(True)
+
     def set_current_label(self, label: int) -> None:
         """Paint with `label` (-1: erase)."""
         if not -1 <= label < len(self.label_set):

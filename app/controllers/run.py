@@ -224,7 +224,7 @@ class RunController:
                 e = snap.energy
                 self.history.steps.append(EnergyStep(snap.iteration, snap.phase, e.scribble, e.network, e.smoothness))
             if snap.done:
-                m.trained_model = snap.model
+                m.set_trained_model(snap.model)
             self.step.emit(snap)
         elif isinstance(msg, Predicted):
             index = self._indices[msg.index]
