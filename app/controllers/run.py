@@ -20,8 +20,8 @@ from scribbleseg_app.events import Event
 
 @dataclass(frozen=True)
 class EnergyStep:
-    """One optimization step's energy: round `iteration`, `phase` ("train", "graphcut",
-    "context"), and its terms (the total is their sum; ``network`` NaN before training)."""
+    """One optimization step's energy: round `iteration`, `phase` ("train" or "graphcut"), and
+    its terms (the total is their sum; ``network`` NaN before training)."""
 
     iteration: int
     phase: str
@@ -42,8 +42,8 @@ class EnergyHistory:
     ----------
     steps : list of EnergyStep
     marks : list of (int, str)
-        ``(number of steps before it, text)``: where each round, the label-context stage and a
-        prediction began. Steps start at the first cut, when every shape has labels.
+        ``(number of steps before it, text)``: where each round and a prediction began. Steps
+        start at the first cut, when every shape has labels.
     """
 
     steps: list[EnergyStep] = field(default_factory=list)
@@ -205,7 +205,7 @@ class RunController:
             self.progress.emit(msg.done, msg.total)
         elif isinstance(msg, StepDone):
             snap = msg.snapshot
-            if snap.phase in ("graphcut", "context"):
+            if snap.phase == "graphcut":
                 self.changed = {self._indices[j] for j in msg.indices if snap.changed[j]}
             for j, labels in zip(msg.indices, msg.file_labels):
                 if j in self._applied and not snap.changed[j]:
@@ -216,11 +216,9 @@ class RunController:
             # from the first cut on: before it, the shapes without scribbles have no labels and
             # no energy, so the first training's total is not comparable with the rest
             first_cut = snap.iteration == 1 and snap.phase == "graphcut"
-            if snap.iteration >= 1 and snap.phase in ("train", "graphcut", "context") and (self.history.steps or first_cut):
+            if snap.iteration >= 1 and snap.phase in ("train", "graphcut") and (self.history.steps or first_cut):
                 if snap.phase == "train" or first_cut:
                     self.history.mark(f"round {snap.iteration}")
-                elif snap.phase == "context":
-                    self.history.mark("context")
                 e = snap.energy
                 self.history.steps.append(EnergyStep(snap.iteration, snap.phase, e.scribble, e.network, e.smoothness))
             if snap.done:

@@ -16,7 +16,7 @@ LINES = (("total", "total", "#1f3b73"), ("scribble", "scribbles", "#d62728"),
 class EnergyPlot(QWidget):
     """Draws an :class:`~scribbleseg_app.controllers.run.EnergyHistory`: one line per term over
     the steps (x: step; y: energy, shared scale with its range on the axis), a dashed line where
-    each round, the label-context stage and a prediction began."""
+    each round and a prediction began."""
 
     def __init__(self, parent=None):
         super().__init__(parent)

@@ -5,12 +5,6 @@ with the labels Y fixed, the network θ is trained on them; with θ fixed, a mul
 cut finds the labels. The labels of the last cut are the result, the last network is the
 model, and every snapshot's energy is that of the labels it carries.
 
-With the label-context stage (:attr:`SegmentParams.label_context`), the alternation trains the
-learner's first stage; once it has converged, the second stage is trained on the final labels
-and the shapes without scribbles are cut once more under the whole learner, as new shapes are
-predicted (phase ``"context"``). Scribbled shapes keep their labels: their network term stays
-the first stage's, cross-fitted.
-
 Two variants (:attr:`SegmentParams.method`):
 
 ``"face"`` (default)
@@ -63,7 +57,7 @@ from scribbleseg_core.signatures.context import DEFAULT_SCALES
 
 Method = Literal["face", "paper"]
 METHODS: tuple[str, ...] = ("face", "paper")
-Phase = Literal["init", "train", "graphcut", "context", "done"]
+Phase = Literal["init", "train", "graphcut", "done"]
 #: The alternation has converged when a round lowers the total energy by less than this fraction.
 TOLERANCE = 1e-3
 
@@ -95,8 +89,9 @@ class SegmentParams:
     label_context : bool
         ``"face"`` only: the learner has a second stage that also reads, for every label,
         how far the faces the first stage gives that label lie from the face
-        (:mod:`~scribbleseg_core.engine.learner`). It is trained once, after the alternation,
-        and cuts the shapes without scribbles once more. Default True.
+        (:mod:`~scribbleseg_core.engine.learner`); it trains one more network a round, and
+        gives the network term of the shapes without scribbles (a scribbled shape's is
+        stage 1's). Default True.
     cross_fit : float
         ``"face"`` only: the share of held-out networks in a scribbled shape's network term,
         ``log((1 − a) P_all + a P_half)``: its probabilities also come from a network trained
@@ -180,9 +175,7 @@ class Snapshot:
     ----------
     iteration : int
         0 for the initial labels, then the round 1, 2, ...
-    phase : {"init", "train", "graphcut", "context", "done"}
-        ``"context"``: the learner's second stage was trained and the shapes without
-        scribbles were cut under it (with label context only, after the last round).
+    phase : {"init", "train", "graphcut", "done"}
     energy : EnergyTerms
         Summed over the shapes that have labels (``network`` NaN before training): the
         energy of `labels` under the network of this step.
@@ -194,8 +187,7 @@ class Snapshot:
     seconds : float
         Time this step took.
     model : TrainedModel or None
-        The learner of this step (from the first training on; its second stage from the
-        ``"context"`` step on); later steps train a copy.
+        The network of this step (from the first training on); later steps train a copy.
     """
 
     iteration: int
@@ -259,8 +251,9 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
     inputs = [params.network_input(s) if problem.trains_on(i) else None for i, s in enumerate(problem.shapes)]
     d = next(x.shape[1] for x in inputs if x is not None)
     share = params.cross_fit if params.method == "face" else 0.0
-    scribbled = [s.is_scribbled for s in problem.shapes]
-    net = _Networks(d, len(problem.label_names), params.network, share, scribbled, params.uses_label_context)
+    shapes = problem.shapes
+    context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
+    net = _Networks(d, len(problem.label_names), params.network, share, [s.is_scribbled for s in shapes], context_of)
     model, logp, best, it = None, None, np.inf, 0
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
@@ -273,7 +266,7 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
             net = previous  # training did not lower E: keep the networks that made these labels
             break
         logp, energy = new_logp, e_train
-        model = problem.model(Learner(net.main))
+        model = problem.model(net.main)
         yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
                        model)
         t = time.perf_counter()
@@ -285,34 +278,23 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
         best = min(best, energy.total)
         if converged:
             break
-    model = model or problem.model(Learner(net.main))
-    if params.uses_label_context:
-        t = time.perf_counter()
-        contexts = [s.label_context for s in problem.shapes]
-        learner = Learner(net.main, net.fit_context(inputs, labels, contexts))
-        model = problem.model(learner)
-        # the shapes without scribbles are cut again under the whole learner, as a new shape is
-        logp = [lp if scribbled[i] else learner.log_proba(inputs[i], contexts[i]) for i, lp in enumerate(logp)]
-        unscribbled = [not s for s in scribbled]
-        new = problem.cut(labels, logp, only=unscribbled)
-        changed = tuple(a is not None and b is not None and not np.array_equal(a, b) for a, b in zip(labels, new))
-        labels, energy = new, problem.energy(new, logp)
-        yield Snapshot(it, "context", energy, _frozen(labels, problem.shapes), changed, time.perf_counter() - t, model)
-    yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t0, model)
+    yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t0,
+                   model or problem.model(net.main))
 
 
 class _Networks:
-    """The first-stage networks the alternation trains, and the network term of the energy.
+    """The learner the alternation trains, and the network term of the energy it gives.
 
-    The learner's first stage (:attr:`main`) is trained on every labeled shape. Two more
-    first-stage networks are each trained on one half of the shapes (fold ``i % 2``), so that
-    every shape has probabilities from a network that never saw its labels. They serve
+    The learner (the model) is trained on every labeled shape. Two more first-stage networks
+    are each trained on one half of the shapes (fold ``i % 2``), so that every shape has
+    probabilities from a network that never saw its labels. They serve
 
     * cross-fitting (``share > 0``): a scribbled shape's probabilities are
-      ``(1 − share) P_main + share P_other half``, so its term is not only the echo of its
-      propagated labels (shapes without scribbles use the main network alone, as a new shape
-      would);
-    * the label-context stage (:meth:`fit_context`): it is trained on the label distances of
+      ``(1 − share) P_stage 1 + share P_other half``, so its term is not only the echo of its
+      propagated labels. Its term comes from stage 1 alone: stage 2 reads stage-1
+      probabilities, which on a shape stage 1 was trained on are in-sample. Shapes without
+      scribbles use the whole learner, as a new shape is predicted;
+    * the label-context stage (`context_of` given): it is trained on the label distances of
       these held-out probabilities, as it will meet on new shapes.
 
     Parameters
@@ -323,44 +305,41 @@ class _Networks:
     share : float
     mixed : sequence of bool
         Per shape: is it scribbled (cross-fitted)?
-    context : bool
-        Whether a label-context stage will be fit (it needs the held-out networks).
+    context_of : callable(int) -> LabelContext, optional
+        A shape's label context; None: no label-context stage.
     """
 
-    def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool], context=False):
+    def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool], context_of=None):
         n = len(mixed)
-        self.d, self.k, self.params = d, k, params
-        self.main = FaceClassifier(d, k, params)
+        self.context_of = context_of
+        stage2 = FaceClassifier(d + 2 * k, k, params) if context_of is not None else None
+        self.main = Learner(FaceClassifier(d, k, params), stage2)
         self.share = share if n >= 2 else 0.0
         self.mixed = list(mixed)
         self.fold_of = np.arange(n) % 2
-        held_out = n >= 2 and (self.share > 0 or context)
+        held_out = n >= 2 and (self.share > 0 or context_of is not None)
         self.halves = [FaceClassifier(d, k, params) for _ in range(2)] if held_out else []
         self._held: dict[int, tuple[int, np.ndarray]] = {}  # shape -> (id of its input, held-out log P)
 
     @property
     def trained(self) -> bool:
-        return self.main.trained
+        return self.main.stage1.trained
 
     def fit(self, inputs, labels) -> None:
         """Train on every shape with labels and inputs; warm when trained before."""
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
-        self.main.fit([inputs[i] for i in usable], [labels[i] for i in usable], warm=self.main.trained)
+        first = self.main.stage1
+        first.fit([inputs[i] for i in usable], [labels[i] for i in usable], warm=first.trained)
         for f, half in enumerate(self.halves):
             others = [i for i in usable if self.fold_of[i] != f]
             if others:
                 half.fit([inputs[i] for i in others], [labels[i] for i in others], warm=half.trained)
         self._held = {}
-
-    def fit_context(self, inputs, labels, contexts) -> FaceClassifier:
-        """A label-context stage (d + 2k inputs) trained on `labels` of every shape with labels
-        and inputs, reading the label distances (`contexts`, one :class:`LabelContext` a shape)
-        of each shape's held-out probabilities (in-sample ones when there is no held-out network)."""
-        usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
-        X2 = [context_input(inputs[i], contexts[i], self._held_out_log_proba(i, inputs[i], self.main)) for i in usable]
-        second = FaceClassifier(self.d + 2 * self.k, self.k, self.params)
-        second.fit(X2, [labels[i] for i in usable])
-        return second
+        second = self.main.stage2
+        if second is not None:
+            X2 = [context_input(inputs[i], self.context_of(i), self._held_out_log_proba(i, inputs[i], first))
+                  for i in usable]
+            second.fit(X2, [labels[i] for i in usable], warm=second.trained)
 
     def _held_out(self, i: int) -> FaceClassifier | None:
         """The trained first-stage network that did not see shape i's labels, if any."""
@@ -371,8 +350,7 @@ class _Networks:
 
     def _held_out_log_proba(self, i: int, x: np.ndarray, fallback: FaceClassifier | None = None) -> np.ndarray | None:
         """Log-probabilities of shape i (input `x`) from its held-out network (else from
-        `fallback`, else None); kept until the next fit, since the energy and the context stage
-        ask again."""
+        `fallback`, else None); kept until the next fit, since training and the energy ask twice."""
         if i in self._held and self._held[i][0] == id(x):
             return self._held[i][1]
         net = self._held_out(i)
@@ -388,7 +366,10 @@ class _Networks:
             if x is None:
                 out.append(None)
                 continue
-            own = self.main.log_proba(x)
+            if self.mixed[i]:  # scribbled: stage 1 (stage 2 would read stage 1's in-sample probabilities)
+                own = self.main.stage1.log_proba(x)
+            else:  # as a new shape is predicted: the whole learner
+                own = self.main.log_proba(x, self.context_of(i) if self.main.stage2 is not None else None)
             held = self._held_out_log_proba(i, x) if self.share > 0 and self.mixed[i] else None
             if held is None:
                 out.append(own)
@@ -412,11 +393,8 @@ class _FaceProblem:
     def initial_labels(self) -> list[np.ndarray | None]:
         return [e.cut() if e.is_scribbled else None for e in self.energies]
 
-    def cut(self, labels, logp, only=None) -> list[np.ndarray]:
-        """Every shape's cut under the network term `logp`; with `only` (a bool per shape),
-        the others keep their `labels`."""
-        return [e.cut(lp, init=lab) if only is None or only[i] else lab
-                for i, (e, lab, lp) in enumerate(zip(self.energies, labels, logp))]
+    def cut(self, labels, logp) -> list[np.ndarray]:
+        return [e.cut(lp, init=lab) for e, lab, lp in zip(self.energies, labels, logp)]
 
     def energy(self, labels, logp) -> EnergyTerms:
         total = EnergyTerms(0.0, 0.0 if logp is not None else float("nan"), 0.0)

@@ -127,7 +127,7 @@ def shape_scores(item: Item, labels_file: np.ndarray) -> dict:
 
 
 #: Where a mode's time goes: the snapshot phases, and the steps around the optimization.
-_PHASES = {"init": "propagation", "train": "training", "graphcut": "cuts", "context": "training"}
+_PHASES = {"init": "propagation", "train": "training", "graphcut": "cuts"}
 TIME_PARTS: tuple[str, ...] = ("shapes", "propagation", "training", "cuts", "prediction")
 
 

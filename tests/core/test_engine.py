@@ -73,15 +73,12 @@ def test_each_snapshot_carries_the_energy_of_its_labels(collection):
     snaps = list(segment_collection(shapes, LABELS, params))
     k = len(LABELS)
     energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes]
-    for snap in snaps[1:-1]:
-        if snap.phase == "context":  # the whole learner on shapes without scribbles; stage 1 on scribbled ones
-            logp = [snap.model.learner.stage1.log_proba(params.network_input(s)) if s.is_scribbled
-                    else snap.model.log_proba(s) for s in shapes]
-        else:
-            logp = [snap.model.log_proba(s) for s in shapes]
+    for snap in snaps[1:-1]:  # a scribbled shape's term is stage 1's; the others', the whole learner's
+        logp = [snap.model.learner.stage1.log_proba(params.network_input(s)) if s.is_scribbled
+                else snap.model.log_proba(s) for s in shapes]
         terms = [e.terms(lab, lp) for e, lab, lp in zip(energies, snap.labels, logp) if (lab >= 0).any()]
         np.testing.assert_allclose(sum(sum(t) for t in terms), snap.energy.total, rtol=1e-6)
-    assert snaps[-2].phase == "context" and snaps[-1].energy == snaps[-2].energy
+    assert snaps[-1].energy == [s for s in snaps if s.phase == "graphcut"][-1].energy
 
 
 def test_cross_fitting_mixes_in_networks_that_never_saw_the_shape(collection):
@@ -104,9 +101,8 @@ def test_cross_fitting_mixes_in_networks_that_never_saw_the_shape(collection):
 
 
 def test_label_context_stage_learns_from_held_out_probabilities(collection, monkeypatch):
-    """Stage 2 is trained once, after the alternation, on the label distances of the half
-    networks' probabilities (never of a network that saw the shape); it cuts the shapes without
-    scribbles once more, and the model's prediction runs both stages."""
+    """Stage 2 is trained on the label distances of the half networks' probabilities (never
+    of a network that saw the shape), and the model's prediction runs both stages."""
     from scribbleseg_core.engine import optimize
     from scribbleseg_core.engine.learner import context_input
 
@@ -116,29 +112,21 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     k = len(LABELS)
     seen = []
     monkeypatch.setattr(optimize, "context_input", lambda x, c, lp: seen.append(lp) or context_input(x, c, lp))
-    net = optimize._Networks(inputs[0].shape[1], k, PARAMS.network, 0.0, [s.is_scribbled for s in shapes], True)
+    net = optimize._Networks(inputs[0].shape[1], k, PARAMS.network, 0.0, [s.is_scribbled for s in shapes],
+                             lambda i: shapes[i].label_context)
     net.fit(inputs, labels)
-    assert len(net.halves) == 2
-    second = net.fit_context(inputs, labels, [s.label_context for s in shapes])
-    assert second.num_inputs == inputs[0].shape[1] + 2 * k
+    assert len(net.halves) == 2 and net.main.stage2.num_inputs == inputs[0].shape[1] + 2 * k
     used = [i for i, lab in enumerate(labels) if lab is not None]
-    assert len(seen) == len(used)
     for i, lp in zip(used, seen):
         np.testing.assert_allclose(lp, net.halves[net.fold_of[i]].log_proba(inputs[i]))
-    rounds = [s for s in snaps if s.phase in ("train", "graphcut")]
-    assert all(s.model.learner.stage2 is None for s in rounds)  # the alternation trains stage 1 only
-    context = next(s for s in snaps if s.phase == "context")
-    for i, shape in enumerate(shapes):  # only shapes without scribbles are cut again
-        if shape.is_scribbled:
-            np.testing.assert_array_equal(context.labels[i], rounds[-1].labels[i])
     model = snaps[-1].model
-    assert model is context.model and model.learner.stage2 is not None
+    assert model.learner.stage2 is not None
     s = shapes[3]
     first = model.learner.stage1.log_proba(inputs[3])
     np.testing.assert_allclose(model.log_proba(s),
                                model.learner.stage2.log_proba(context_input(inputs[3], s.label_context, first)))
-    off = list(segment_collection(shapes, LABELS, dataclasses.replace(PARAMS, label_context=False, rounds=1)))
-    assert off[-1].model.learner.stage2 is None and not any(x.phase == "context" for x in off)
+    off = dataclasses.replace(PARAMS, label_context=False, rounds=1)
+    assert next(x for x in segment_collection(shapes, LABELS, off) if x.model).model.learner.stage2 is None
 
 
 def test_energy_never_increases_and_the_result_is_the_last_cut(collection, paper):
@@ -147,7 +135,7 @@ def test_energy_never_increases_and_the_result_is_the_last_cut(collection, paper
         assert len(totals) >= 2
         assert all(b <= a * (1 + 1e-9) for a, b in zip(totals, totals[1:]))
         assert snaps[0].phase == "init" and np.isnan(snaps[0].energy.network)
-        last_cut = [s for s in snaps if s.phase in ("graphcut", "context")][-1]
+        last_cut = [s for s in snaps if s.phase == "graphcut"][-1]
         for a, b in zip(last_cut.labels, snaps[-1].labels):
             np.testing.assert_array_equal(a, b)
 
