@@ -2,9 +2,9 @@
 
 Writes docs/app_window.png (the Qt window, offscreen) and docs/app_viewport.png (polyscope,
 EGL) with the demo scribbles, then docs/app_result_window.png and docs/app_result_viewport.png
-after "Segment collection" (a shape that had no scribbles, predicted). The live-preview
-pictures (docs/app_preview_viewport.png, docs/app_run_window.png) are screenshots of the
-app under Xvfb, painted with real mouse events (xdotool), not made by this script.
+after "Segment collection" (a shape that had no scribbles, predicted). The pictures of both
+windows during and after a run (docs/app_during_run.png, docs/app_after_run.png) are
+screenshots of the app under Xvfb, painted with real mouse events (xdotool), not made here.
 """
 
 from __future__ import annotations
