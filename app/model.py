@@ -490,6 +490,17 @@ class CollectionModel:
         if len(changed):
             self.scribbles_changed.emit(index, changed)
 
+    def paint_stroke_faces(self, faces) -> np.ndarray:
+        """Within a stroke (:meth:`begin_stroke` … :meth:`end_stroke`) on the current shape:
+        paint file faces `faces` with the current label, as a brush sample would. Returns the
+        faces that changed."""
+        if self.current < 0 or not self.layer(self.current).in_stroke:
+            return np.zeros(0, np.int64)
+        changed = self.layer(self.current).paint(np.asarray(faces, dtype=np.int64), self.current_label)
+        if len(changed):
+            self.scribbles_changed.emit(self.current, changed)
+        return changed
+
     def end_stroke(self) -> None:
         if self.current < 0 or not self.layer(self.current).in_stroke:
             return

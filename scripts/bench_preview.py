@@ -1,9 +1,9 @@
 """Live-preview latency in the real app (offscreen Qt + EGL polyscope), on PSB shapes.
 
 ``python scripts/bench_preview.py [PSB_DIR] [--shapes N]``: opens each PSB category as a
-collection, replays one shape's fixed scribbles stroke by stroke through the model (what a
-mouse release does), and times each stroke from the release to the frame that shows the new
-colors. Prints a table per shape and the median and worst over all strokes.
+collection, replays one shape's fixed scribbles stroke by stroke through the model (each stroke painted
+and shown first, as during a drag), and times each stroke from the release to the frame that
+shows the preview. Prints a table per shape and the median and worst over all strokes.
 """
 
 from __future__ import annotations
@@ -54,8 +54,13 @@ def main() -> None:
                 app.processEvents()
             times = []
             for stroke in scr.strokes:
+                m.set_current_label(stroke.label)
+                m.begin_stroke()  # the stroke is painted and shown, as while the mouse drags
+                m.paint_stroke_faces(stroke.faces)
+                app.processEvents()
+                viewport.tick()
                 t0 = time.perf_counter()
-                m.paint_faces(index, stroke.faces, stroke.label)  # what a mouse release ends with: autosave, preview request
+                m.end_stroke()  # the release: autosave, preview request
                 while not w.previews.idle:
                     app.processEvents()
                     time.sleep(0.001)

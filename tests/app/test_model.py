@@ -87,3 +87,20 @@ def test_delete_label_updates_results_and_drops_the_model(tmp_path):
     assert m.label_set.names == ("b", "c") and m.trained_model is None
     assert list(m.layer(0).labels[:3]) == [1, 1, -1]
     assert set(m.shapes[1].labels[:40]) == {-1} and set(m.shapes[1].labels[40:]) == {1}
+
+
+def test_a_stroke_painted_by_face_ids_is_one_undo_step(tmp_path):
+    m, _ = _model(tmp_path, _collection(tmp_path))
+    m.set_current(1)
+    committed, changed = [], []
+    m.edit_committed.connect(committed.append)
+    m.scribbles_changed.connect(lambda i, faces: changed.append(len(faces)))
+    m.set_current_label(1)
+    m.begin_stroke()
+    m.paint_stroke_faces([0, 1, 2])
+    m.paint_stroke_faces([2, 3])
+    assert changed == [3, 1] and not committed  # shown while painting, committed at the release
+    m.end_stroke()
+    assert committed == [1] and m.shapes[1].state == "scribbled" and m.shapes[1].edits == 1
+    m.undo()
+    assert (m.layer(1).labels == -1).all()
