@@ -329,7 +329,8 @@ class MainWindow(QMainWindow):
     def _on_add_meshes(self) -> None:
         paths, _ = QFileDialog.getOpenFileNames(self, "Add meshes", "", "Meshes (*.off *.obj *.ply *.stl *.glb *.gltf)")
         if paths:
-            self.model.add_meshes(paths)
+            self.files.add_meshes(paths)
+            self.statusBar().showMessage(f"reading {len(paths)} meshes…")
 
     def keep_unsaved_work(self, *, can_cancel: bool = True) -> bool:
         """Before the collection goes away: offer to save a session if there are unsaved

@@ -169,20 +169,29 @@ class CollectionModel:
         if pending:
             self.restore_available.emit(len(pending))
 
-    def add_meshes(self, paths) -> list[int]:
+    def add_meshes(self, paths, loaded: dict | None = None) -> list[int]:
         """Add mesh files to the open collection (e.g. new shapes to predict); a file that
-        fails to load is reported and not added. Returns the new shape indices."""
+        fails to load is reported and not added. Returns the new shape indices.
+
+        `loaded` maps a path to its :class:`Mesh` or to the :class:`ScribblesegError` its
+        load raised (read elsewhere, e.g. by :func:`load_meshes` on a job thread); paths not
+        in it are read here."""
         added = []
         known = {e.path.resolve() for e in self.shapes}
+        loaded = loaded or {}
         for p in map(Path, paths):
             if p.resolve() in known:
                 continue
+            mesh = loaded.get(p)
             try:
-                load_mesh(p)
+                if mesh is None:
+                    mesh = load_mesh(p)
+                elif isinstance(mesh, ScribblesegError):
+                    raise mesh
             except ScribblesegError as e:
                 self.error.emit(str(e))
                 continue
-            self.shapes.append(ShapeEntry(p.resolve()))
+            self.shapes.append(ShapeEntry(p.resolve(), _mesh=mesh))
             known.add(p.resolve())
             added.append(len(self.shapes) - 1)
         if added:
@@ -618,3 +627,15 @@ def write_session(folder: str | os.PathLike, snapshot: SessionSnapshot) -> list[
         shapes.append(SessionShape(entry.path, n, scribble, labels, state))
     save_session(folder, Session(snapshot.label_set, shapes, snapshot.current, snapshot.model))
     return skipped
+
+
+def load_meshes(paths) -> dict:
+    """``{path: Mesh or the ScribblesegError its load raised}`` for :meth:`CollectionModel.add_meshes`
+    (any thread)."""
+    out = {}
+    for p in map(Path, paths):
+        try:
+            out[p] = load_mesh(p)
+        except ScribblesegError as e:
+            out[p] = e
+    return out

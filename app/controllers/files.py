@@ -12,7 +12,7 @@ from pathlib import Path
 
 from scribbleseg_app.controllers.jobs import Dispatcher, Job
 from scribbleseg_app.events import Event
-from scribbleseg_app.model import write_session
+from scribbleseg_app.model import load_meshes, write_session
 
 
 def export_shapes(folder, items, label_set) -> tuple[list[Path], list[str]]:
@@ -131,6 +131,22 @@ class FilesController:
         self.exporting = Job(export_shapes, (folder, items, m.label_set), dispatcher=self.dispatcher, on_done=done,
                              on_error=failed, name="scribbleseg-export").start()
         return None
+
+    def add_meshes(self, paths, *, wait: bool = False) -> None:
+        """Read mesh files on a job thread, then add those that loaded to the collection (the
+        others are reported by the model); here with `wait`."""
+        paths = [Path(p) for p in paths]
+        generation = self.model.generation
+
+        def done(loaded):
+            if generation == self.model.generation:  # not into a collection opened meanwhile
+                self.model.add_meshes(paths, loaded)
+
+        if wait:
+            done(load_meshes(paths))
+            return
+        Job(load_meshes, (paths,), dispatcher=self.dispatcher, on_done=done,
+            on_error=lambda e: self.failed.emit(f"adding meshes failed: {e}"), name="scribbleseg-add").start()
 
     def shutdown(self, timeout: float = 30.0) -> bool:
         """Wait for a save or an export under way (quitting must not cut a file short)."""

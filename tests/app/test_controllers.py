@@ -330,3 +330,18 @@ def test_a_cancelled_job_reports_nothing():
     failing.join(10)
     dispatcher.drain()
     assert isinstance(got[-1], ZeroDivisionError)
+
+
+def test_added_meshes_are_read_off_the_main_thread(setup, tmp_path):
+    model, dispatcher, errors = setup
+    V, F = icosphere(1)
+    good, bad = tmp_path / "extra.off", tmp_path / "broken.off"
+    write_off(good, V, F)
+    bad.write_text("OFF\n3 1 0\n0 0 0\n")
+    files = FilesController(model, dispatcher)
+    added = []
+    model.shapes_added.connect(added.append)
+    files.add_meshes([good, bad])
+    assert len(model.shapes) == 3  # nothing yet: the files are being read
+    until(lambda: added, dispatcher)
+    assert added == [[3]] and model.shapes[3].loaded and "broken.off" in errors[-1]
