@@ -152,13 +152,14 @@ class RunController:
         return None
 
     def stop(self) -> None:
-        """Stop between two steps; the labels so far stay."""
+        """Stop the run now (a :class:`ProcessJob` ends its process; a :class:`Job` stops
+        after the step under way); the labels so far stay."""
         if self.job is not None:
             self.job.cancel()
             self._end("stopped")
 
     def shutdown(self, timeout: float = 10.0) -> bool:
-        """Cancel any run and wait for its thread (quitting); True when it ended in time."""
+        """Cancel any run and wait for it to end (quitting); True when it ended in time."""
         job = self.job
         if job is None:
             return True
