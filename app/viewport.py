@@ -9,6 +9,12 @@ import numpy as np
 
 STRUCTURE = "shape"
 COLORS = "labels"
+#: A full redraw every this many ticks. Polyscope skips drawing a frame in which nothing
+#: changed, but under software GL (llvmpipe) part of each skipped frame's work is deferred to the
+#: next drawn one: after 9 s of 16 ms ticks, the frame showing a colour change took 3 s.
+#: Redrawing every few ticks pays that work as it comes, so a change shows in about one frame's
+#: time (docs/app.md, Responsiveness).
+FLUSH_TICKS = 5
 
 
 @dataclass(frozen=True)
@@ -220,6 +226,8 @@ class PolyscopeViewport:
         """Render one frame, then act on the mouse input it sampled. Returns whether the user
         did something in the viewport window during it (moved, clicked, scrolled, a key)."""
         self._input = None
+        if self.frames % FLUSH_TICKS == 0:
+            self._ps.request_redraw()
         self._ps.frame_tick()
         self.frames += 1
         self.close_requested = bool(self._ps.window_requests_close())

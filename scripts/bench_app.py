@@ -48,6 +48,7 @@ def in_window(cycles: int, run: bool = True) -> None:
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
     MainWindow._confirm = lambda self, title, text: False  # reopening offers the autosave: decline, no dialog
+    MainWindow._ask_unsaved = lambda self, can_cancel: "discard"  # closing: no dialog
     w = MainWindow(viewport=PolyscopeViewport(), autosave_dir=tempfile.mkdtemp())
     w.show()
 

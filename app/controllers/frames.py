@@ -24,11 +24,11 @@ class FrameClock:
     busy_interval : float
         Seconds between frames while :attr:`busy` (a run under way). Default 0.05.
     idle_interval : float
-        Seconds between frames otherwise. Default 0.3.
+        Seconds between frames otherwise. Default 0.4.
     """
 
     def __init__(self, clock: Callable[[], float] = time.perf_counter, active_s: float = 1.5,
-                 busy_interval: float = 0.05, idle_interval: float = 0.3) -> None:
+                 busy_interval: float = 0.05, idle_interval: float = 0.4) -> None:
         self.clock = clock
         self.active_s, self.busy_interval, self.idle_interval = active_s, busy_interval, idle_interval
         self.busy = False

@@ -133,6 +133,11 @@ class Job:
         self._post(self._on_finished)
 
 
+#: How much lower a child process's scheduling priority is (Unix ``nice``): the renderer gets
+#: the cores first, the run whatever it leaves (ray casting and software GL both use every core).
+CHILD_NICENESS = 10
+
+
 def _send(out, kind: str, value) -> None:
     """One message of a child process: its length, then the pickle of (kind, value)."""
     data = pickle.dumps((kind, value), protocol=pickle.HIGHEST_PROTOCOL)
@@ -150,6 +155,8 @@ def _child_main() -> None:
 
     out = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)
+    if hasattr(os, "nice"):  # the window's frames come first when both want the cores
+        os.nice(CHILD_NICENESS)
     fn, args = pickle.loads(sys.stdin.buffer.read())  # from the parent that started this process
     try:
         result = fn(*args)
