@@ -89,9 +89,8 @@ class SegmentParams:
     label_context : bool
         ``"face"`` only: the learner has a second stage that also reads, for every label,
         how far the faces the first stage gives that label lie from the face
-        (:mod:`~scribbleseg_core.engine.learner`); it trains one more network a round, and
-        gives the network term of the shapes without scribbles (a scribbled shape's is
-        stage 1's). Default True.
+        (:mod:`~scribbleseg_core.engine.learner`); it trains one more network a round.
+        Default True.
     cross_fit : float
         ``"face"`` only: the share of held-out networks in a scribbled shape's network term,
         ``log((1 − a) P_all + a P_half)``: its probabilities also come from a network trained
@@ -290,10 +289,8 @@ class _Networks:
     probabilities from a network that never saw its labels. They serve
 
     * cross-fitting (``share > 0``): a scribbled shape's probabilities are
-      ``(1 − share) P_stage 1 + share P_other half``, so its term is not only the echo of its
-      propagated labels. Its term comes from stage 1 alone: stage 2 reads stage-1
-      probabilities, which on a shape stage 1 was trained on are in-sample. Shapes without
-      scribbles use the whole learner, as a new shape is predicted;
+      ``(1 − share) P_learner + share P_other half``, so its term is not only the echo of its
+      propagated labels (shapes without scribbles use the learner alone, as a new shape would);
     * the label-context stage (`context_of` given): it is trained on the label distances of
       these held-out probabilities, as it will meet on new shapes.
 
@@ -366,10 +363,7 @@ class _Networks:
             if x is None:
                 out.append(None)
                 continue
-            if self.mixed[i]:  # scribbled: stage 1 (stage 2 would read stage 1's in-sample probabilities)
-                own = self.main.stage1.log_proba(x)
-            else:  # as a new shape is predicted: the whole learner
-                own = self.main.log_proba(x, self.context_of(i) if self.main.stage2 is not None else None)
+            own = self.main.log_proba(x, self.context_of(i) if self.main.stage2 is not None else None)
             held = self._held_out_log_proba(i, x) if self.share > 0 and self.mixed[i] else None
             if held is None:
                 out.append(own)

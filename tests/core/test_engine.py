@@ -73,9 +73,8 @@ def test_each_snapshot_carries_the_energy_of_its_labels(collection):
     snaps = list(segment_collection(shapes, LABELS, params))
     k = len(LABELS)
     energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes]
-    for snap in snaps[1:-1]:  # a scribbled shape's term is stage 1's; the others', the whole learner's
-        logp = [snap.model.learner.stage1.log_proba(params.network_input(s)) if s.is_scribbled
-                else snap.model.log_proba(s) for s in shapes]
+    for snap in snaps[1:-1]:
+        logp = [snap.model.log_proba(s) for s in shapes]
         terms = [e.terms(lab, lp) for e, lab, lp in zip(energies, snap.labels, logp) if (lab >= 0).any()]
         np.testing.assert_allclose(sum(sum(t) for t in terms), snap.energy.total, rtol=1e-6)
     assert snaps[-1].energy == [s for s in snaps if s.phase == "graphcut"][-1].energy
