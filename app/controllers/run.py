@@ -13,25 +13,20 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-import numpy as np
 from scribbleseg_app.controllers.jobs import Dispatcher, Job, ProcessJob
 from scribbleseg_app.events import Event
+
+from scribbleseg_core.engine.energy import EnergyTerms
 
 
 @dataclass(frozen=True)
 class EnergyStep:
-    """One optimization step's energy: round `iteration`, `phase` ("train" or "graphcut"), and
-    its terms (the total is their sum; ``network`` NaN before training)."""
+    """One optimization step: round `iteration`, `phase` ("train" or "graphcut"), and the
+    energy of its labels split into its terms (``network`` NaN before training)."""
 
     iteration: int
     phase: str
-    scribble: float
-    network: float
-    smoothness: float
-
-    @property
-    def total(self) -> float:
-        return self.scribble + (0.0 if np.isnan(self.network) else self.network) + self.smoothness
+    energy: EnergyTerms
 
 
 @dataclass
@@ -220,8 +215,7 @@ class RunController:
             if snap.iteration >= 1 and snap.phase in ("train", "graphcut") and (self.history.steps or first_cut):
                 if snap.phase == "train" or first_cut:
                     self.history.mark(f"round {snap.iteration}")
-                e = snap.energy
-                self.history.steps.append(EnergyStep(snap.iteration, snap.phase, e.scribble, e.network, e.smoothness))
+                self.history.steps.append(EnergyStep(snap.iteration, snap.phase, snap.energy))
             if snap.done:
                 m.set_trained_model(snap.model)
             self.step.emit(snap)

@@ -8,7 +8,7 @@ from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QPainter, QPen
 from PySide6.QtWidgets import QWidget
 
-#: (attribute of EnergyStep, legend, colour) per line.
+#: (attribute of EnergyTerms, legend, colour) per line.
 LINES = (("total", "total", "#1f3b73"), ("scribble", "scribbles", "#d62728"),
          ("network", "network", "#2ca02c"), ("smoothness", "smoothness", "#9467bd"))
 
@@ -36,7 +36,7 @@ class EnergyPlot(QWidget):
         title = "energy"
         if steps:
             s = steps[-1]
-            title += f": round {s.iteration} ({s.phase}), total {s.total:.1f}"
+            title += f": round {s.iteration} ({s.phase}), total {s.energy.total:.1f}"
         p.setPen(Qt.GlobalColor.black)
         p.drawText(4, fm.ascent() + 2, title)
         legend_y = 2 * fm.height() + 2
@@ -47,7 +47,7 @@ class EnergyPlot(QWidget):
             p.setPen(Qt.GlobalColor.black)
             p.drawText(x + 18, legend_y, name)
             x += 24 + fm.horizontalAdvance(name)
-        values = [getattr(s, a) for s in steps for a, _, _ in LINES]
+        values = [getattr(s.energy, a) for s in steps for a, _, _ in LINES]
         values = [v for v in values if not math.isnan(v)]
         label_w = fm.horizontalAdvance("000000.0") + 6
         area = QRectF(label_w, legend_y + 6, self.width() - label_w - 8, self.height() - legend_y - 8 - fm.height())
@@ -78,8 +78,8 @@ class EnergyPlot(QWidget):
             p.setPen(QColor("#555555"))  # alternate rows, so that close marks do not overlap
             p.drawText(QPointF(xm + 2, area.top() + fm.ascent() + (row % 2) * fm.height()), text)
         for attr, _, color in LINES:
-            pts = [QPointF(px(i), area.bottom() - area.height() * (getattr(s, attr) - lo) / span)
-                   for i, s in enumerate(steps) if not math.isnan(getattr(s, attr))]
+            pts = [QPointF(px(i), area.bottom() - area.height() * (getattr(s.energy, attr) - lo) / span)
+                   for i, s in enumerate(steps) if not math.isnan(getattr(s.energy, attr))]
             p.setPen(QPen(QColor(color), 2 if attr == "total" else 1.5))
             for a, b in zip(pts, pts[1:]):
                 p.drawLine(a, b)

@@ -27,7 +27,7 @@ the multi-scale context and local shape among the network's inputs (:attr:`Segme
 (:attr:`SegmentParams.label_context`, :mod:`~scribbleseg_core.engine.learner`), and shapes
 without scribbles taking part, smoothed harder.
 
-No GUI code here: the app wraps the generator in a worker thread.
+No GUI code here: the app runs the generator in a worker process.
 """
 
 from __future__ import annotations

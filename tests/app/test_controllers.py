@@ -93,7 +93,7 @@ def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
     assert ended[0].startswith("segmentation finished in")
     assert [e.state for e in model.shapes] == ["labeled", "predicted", "predicted"]
     assert all((e.labels == 1).all() for e in model.shapes) and model.trained_model == "model"
-    assert [(s.phase, s.total) for s in runs.history.steps] == [("graphcut", 6.0)]
+    assert [(s.phase, s.energy.total) for s in runs.history.steps] == [("graphcut", 6.0)]
     assert runs.changed == {0, 1, 2} and runs.history.marks == [(0, "round 1")]
 
 
