@@ -204,9 +204,11 @@ class ProcessJob(Job):
 
     def join(self, timeout: float | None = None) -> bool:
         if self._process is not None:
+            import subprocess
+
             try:
                 self._process.wait(timeout)
-            except Exception:  # subprocess.TimeoutExpired
+            except subprocess.TimeoutExpired:
                 return False
         return super().join(timeout)
 
