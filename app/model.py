@@ -259,7 +259,7 @@ class CollectionModel:
         files are written elsewhere (:func:`write_session`)."""
         shapes = []
         for i, entry in enumerate(self.shapes):
-            scribble = self.layer(i).labels.copy() if i in self._layers else self.scribble_labels(i)
+            scribble = self.scribble_labels(i)  # a copy; no mesh loads here
             labels = self.shown_labels(i)
             shapes.append((entry, scribble, None if labels is None else labels.copy()))
         current = max(0, self.current - sum(1 for e in self.shapes[: max(self.current, 0)] if e.state == "error"))

@@ -1,4 +1,4 @@
-"""What a run's job thread executes: the core's :func:`collection_run` and
+"""What a run's child process executes: the core's :func:`collection_run` and
 :func:`predict_run`, on one torch thread so the renderer keeps the other core.
 
 Re-exports the pipeline's messages so the controllers import them from one place.

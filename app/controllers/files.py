@@ -132,9 +132,9 @@ class FilesController:
                              on_error=failed, name="scribbleseg-export").start()
         return None
 
-    def add_meshes(self, paths, *, wait: bool = False) -> None:
+    def add_meshes(self, paths) -> None:
         """Read mesh files on a job thread, then add those that loaded to the collection (the
-        others are reported by the model); here with `wait`."""
+        others are reported by the model)."""
         paths = [Path(p) for p in paths]
         generation = self.model.generation
 
@@ -142,9 +142,6 @@ class FilesController:
             if generation == self.model.generation:  # not into a collection opened meanwhile
                 self.model.add_meshes(paths, loaded)
 
-        if wait:
-            done(load_meshes(paths))
-            return
         Job(load_meshes, (paths,), dispatcher=self.dispatcher, on_done=done,
             on_error=lambda e: self.failed.emit(f"adding meshes failed: {e}"), name="scribbleseg-add").start()
 

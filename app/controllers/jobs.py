@@ -43,8 +43,18 @@ class QueueDispatcher(Dispatcher):
             n += 1
 
 
-class Cancelled(Exception):
-    """Raised inside a job's thread by :meth:`Job.check` once the job was cancelled."""
+def _outcomes(fn, args):
+    """Run ``fn(*args)``: ``("item", x)`` for each item of the generator it returns, or one
+    ``("done", result)``. Closing this closes that generator."""
+    result = fn(*args)
+    if not inspect.isgenerator(result):
+        yield "done", result
+        return
+    try:
+        for item in result:
+            yield "item", item
+    finally:
+        result.close()
 
 
 class Job:
@@ -97,11 +107,6 @@ class Job:
             self._thread.join(timeout)
         return not self._thread.is_alive()
 
-    def check(self) -> None:
-        """For `fn` itself: raise :class:`Cancelled` once the job was cancelled."""
-        if self._cancelled.is_set():
-            raise Cancelled
-
     def _post(self, callback, *args) -> None:
         if callback is None:
             return
@@ -114,20 +119,14 @@ class Job:
 
     def _run(self) -> None:
         try:
-            result = self._fn(*self._args)
-            if inspect.isgenerator(result):
-                gen = result
-                try:
-                    for item in gen:
-                        if self._cancelled.is_set():
-                            break
-                        self._post(self._on_item, item)
-                finally:
-                    gen.close()
-            else:
-                self._post(self._on_done, result)
-        except Cancelled:
-            pass
+            outcomes = _outcomes(self._fn, self._args)
+            try:
+                for kind, value in outcomes:
+                    if self._cancelled.is_set():
+                        break
+                    self._post(self._on_item if kind == "item" else self._on_done, value)
+            finally:
+                outcomes.close()
         except Exception as e:  # reported on the main thread; a job never takes the app down
             self._post(self._on_error, e)
         self._post(self._on_finished)
@@ -159,12 +158,8 @@ def _child_main() -> None:
         os.nice(CHILD_NICENESS)
     fn, args = pickle.loads(sys.stdin.buffer.read())  # from the parent that started this process
     try:
-        result = fn(*args)
-        if inspect.isgenerator(result):
-            for item in result:
-                _send(out, "item", item)
-        else:
-            _send(out, "done", result)
+        for kind, value in _outcomes(fn, args):
+            _send(out, kind, value)
     except Exception as e:  # sent as text: an exception object need not pickle
         _send(out, "error", f"{type(e).__name__}: {e}")
     _send(out, "end", None)

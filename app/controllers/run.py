@@ -89,7 +89,6 @@ class RunController:
         self.started, self.progress, self.step, self.finished = Event(), Event(), Event(), Event()
         self._indices: list[int] = []
         self._edits: dict[int, int] = {}
-        self._generation = -1
         self._started_at = 0.0
         self._applied: set[int] = set()
         model.collection_changed.connect(self._on_collection_changed)
@@ -169,7 +168,6 @@ class RunController:
         m = self.model
         self.kind, self._indices, self._applied = kind, indices, set()
         self._edits = {i: m.shapes[i].edits for i in indices}
-        self._generation = m.generation
         self._started_at = time.perf_counter()
         self.job = self._job_type(fn, args, dispatcher=self.dispatcher, on_item=self._on_message,
                        on_error=lambda e: self._end(f"{kind} failed: {e}", error=True),
@@ -194,9 +192,7 @@ class RunController:
     def _on_message(self, msg) -> None:
         from scribbleseg_app.controllers.engine_runs import FeaturesDone, Predicted, StepDone
 
-        m = self.model
-        if self._generation != m.generation:
-            return  # belt and braces: a cancelled job's messages are dropped already
+        m = self.model  # a run of another collection was cancelled: its messages never get here
         if isinstance(msg, FeaturesDone):
             self.progress.emit(msg.done, msg.total)
         elif isinstance(msg, StepDone):
