@@ -55,13 +55,14 @@ def _bar(total, desc: str, items=None):
     return tqdm(items, total=total, desc=desc, unit="shape", file=sys.stderr, leave=False)
 
 
-def _write_file_labels(out: Path, mesh, file_labels, label_names) -> None:
-    """``out/<mesh>.seg`` and ``.ply`` for labels per file face."""
+def _write_file_labels(out: Path, mesh, file_labels, label_names, confidence=None) -> None:
+    """``out/<mesh>.seg`` and ``.ply`` for labels per file face (the PLY with the confidence
+    per file face, when given)."""
     from scribbleseg_core.formats.export import export_labeled_mesh
     from scribbleseg_core.formats.labels import LabelSet
 
     export_labeled_mesh(out, mesh.name, mesh.V_file, mesh.F_file, file_labels,
-                        LabelSet.from_names(label_names), formats=["seg", "ply"])
+                        LabelSet.from_names(label_names), formats=["seg", "ply"], confidence=confidence)
 
 
 def _signature_pass(paths, args, meshes=None) -> None:
@@ -124,7 +125,9 @@ def _cmd_segment(args) -> int:
     from scribbleseg_core.engine.pipeline import (
         FeaturesDone,
         Predicted,
+        Scored,
         StepDone,
+        Suggested,
         collection_run,
     )
     from scribbleseg_core.formats.collection import find_collection
@@ -151,7 +154,7 @@ def _cmd_segment(args) -> int:
     _signature_pass(coll.meshes, args, meshes)
     params = SegmentParams(method=args.method)
     bar = None if args.quiet else _bar(len(meshes), "features")
-    last, predicted = None, 0
+    last, predicted, confidence, hint = None, {}, {}, None
     for msg in collection_run(meshes, scribbles, label_names, params, num_patches=args.patches):
         if isinstance(msg, FeaturesDone):
             if bar is not None:
@@ -166,15 +169,21 @@ def _cmd_segment(args) -> int:
                       f"(scribbles {e.scribble:.1f}, network {e.network:.1f}, smoothness {e.smoothness:.1f}) "
                       f"{snap.seconds:.1f} s", file=sys.stderr)
         elif isinstance(msg, Predicted):
-            _write_file_labels(out, meshes[msg.index], msg.file_labels, label_names)
-            predicted += 1
-    for i, labels in zip(last.indices, last.file_labels):
-        _write_file_labels(out, meshes[i], labels, label_names)
+            predicted[msg.index] = msg.file_labels
+        elif isinstance(msg, Scored):
+            confidence[msg.index] = msg.file_confidence
+        elif isinstance(msg, Suggested):
+            hint = msg
+    for i, labels in [*zip(last.indices, last.file_labels), *predicted.items()]:
+        _write_file_labels(out, meshes[i], labels, label_names, confidence.get(i))
     save_model(out / "model", last.snapshot.model)
     if not args.quiet:
         painted = sum(s is not None for s in scribbles)
-        print(f"segmented {len(last.indices) + predicted} shapes ({painted} with scribbles) "
+        print(f"segmented {len(last.indices) + len(predicted)} shapes ({painted} with scribbles) "
               f"in {time.perf_counter() - t0:.1f} s; wrote {out}", file=sys.stderr)
+        if hint is not None:
+            print(f"a stroke would help most on {meshes[hint.index].path.name}, around face {hint.file_face} "
+                  f"(an unconfident region of {len(hint.file_faces)} faces)", file=sys.stderr)
     return 0
 
 
@@ -193,7 +202,7 @@ def _cmd_predict(args) -> int:
             bar.update(done - bar.n)
 
     summary = predict_many(args.model, sources, out, workers=args.workers, scheduler=args.scheduler,
-                           force=args.force, num_patches=args.patches, progress=progress)
+                           force=args.force, num_patches=args.patches, confidence=args.confidence, progress=progress)
     if bar is not None:
         bar.close()
     if not args.quiet:
@@ -321,6 +330,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="redo shapes already done")
     _cluster_options(p, "the shapes")
     p.add_argument("--patches", type=int, default=50, help="primitive patches per shape (paper-faithful models)")
+    p.add_argument("--confidence", action="store_true",
+                   help="also write each face's confidence in [0, 1]: PLY face property 'confidence', "
+                        "<name>.labels.json with a summary per label, <name>.vtp with cell data Label and Confidence")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     p.set_defaults(func=_cmd_predict)
 

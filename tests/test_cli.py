@@ -31,9 +31,12 @@ def test_info_on_a_good_mesh(tmp_path):
 
 def test_segment_then_predict_a_planted_folder(tmp_path):
     """`segment DIR --out OUT` on meshes + scribbles/ (the PSB layout), then `predict`."""
-    import numpy as np
+    import json
 
-    from scribbleseg_core.formats.export import read_ply_labels
+    import numpy as np
+    import trimesh
+
+    from scribbleseg_core.formats.export import read_ply_labels, read_vtp_cell_data
     from scribbleseg_core.formats.scribbles import Scribbles, Stroke, write_scribbles
     from scribbleseg_core.formats.seg import read_seg
     from tests.conftest import write_off
@@ -62,6 +65,21 @@ def test_segment_then_predict_a_planted_folder(tmp_path):
     r = _run_env(env, "predict", str(out / "model"), str(data / "3.off"), "--out", str(tmp_path / "pred"), "--quiet")
     assert r.returncode == 0, r.stderr
     np.testing.assert_array_equal(read_seg(tmp_path / "pred" / "3.seg"), read_seg(out / "3.seg"))
+    # with --confidence: the same labels, and the confidence in the PLY, the JSON summary and a VTP
+    r = _run_env(env, "predict", str(out / "model"), str(data / "3.off"), "--out", str(tmp_path / "conf"),
+                 "--quiet", "--confidence")
+    assert r.returncode == 0, r.stderr
+    labels = read_seg(tmp_path / "conf" / "3.seg")
+    np.testing.assert_array_equal(labels, read_seg(out / "3.seg"))
+    ply = trimesh.load(tmp_path / "conf" / "3.ply", process=False).metadata["_ply_raw"]["face"]["data"]
+    conf = np.asarray(ply["confidence"]).ravel()
+    assert conf.shape == labels.shape and 0 <= conf.min() and conf.max() <= 1 and conf.mean() > 0.5
+    cells = read_vtp_cell_data(tmp_path / "conf" / "3.vtp")
+    np.testing.assert_array_equal(cells["Label"], labels)
+    np.testing.assert_allclose(cells["Confidence"], conf)
+    summary = json.loads((tmp_path / "conf" / "3.labels.json").read_text())["confidence"]
+    assert summary["unconfident_faces"] == int((conf < 0.5).sum())
+    assert set(summary["per_label"]) == {str(v) for v in np.unique(labels)}
     # a model folder that is not one is one clear line
     r = _run_env(env, "predict", str(data), str(data / "3.off"), "--out", str(tmp_path / "x"))
     assert r.returncode == 2 and "no model.json" in r.stderr and "Traceback" not in r.stderr

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from scribbleseg_core.engine.guidance import label_confidence, mean_confidence, suggest
 from scribbleseg_core.engine.optimize import (
     SegmentParams,
     Snapshot,
@@ -50,6 +51,27 @@ class Predicted:
     file_labels: np.ndarray
 
 
+@dataclass(frozen=True, eq=False)
+class Scored:
+    """The confidence of shape `index`'s labels per file face
+    (:func:`~scribbleseg_core.engine.guidance.label_confidence`), and its area-weighted mean."""
+
+    index: int
+    file_confidence: np.ndarray
+    mean: float
+
+
+@dataclass(frozen=True, eq=False)
+class Suggested:
+    """Where a stroke is expected to help most (:func:`~scribbleseg_core.engine.guidance.suggest`):
+    shape `index`, the unconfident region's file faces, and the file face to paint at."""
+
+    index: int
+    file_faces: np.ndarray
+    file_face: int
+    score: float
+
+
 def collection_run(
     meshes: Sequence[Mesh],
     scribbles: Sequence[np.ndarray | None],
@@ -77,7 +99,12 @@ def collection_run(
     StepDone
         After each optimization step; the last one's snapshot is done and has the model.
     Predicted
-        For each shape without scribbles, once the model is trained.
+        For each shape without scribbles, once the model is trained (method ``"paper"``;
+        with ``"face"`` every shape takes part in the optimization).
+    Scored
+        For every shape, at the end.
+    Suggested
+        Last, unless every face is confident.
     """
     shapes = []
     for i, (mesh, scr) in enumerate(zip(meshes, scribbles)):
@@ -91,13 +118,29 @@ def collection_run(
         last = snap
         labeled = tuple(i for i, lab in enumerate(snap.labels) if (lab >= 0).any())
         yield StepDone(snap, labeled, tuple(meshes[i].labels_to_file(snap.labels[i]) for i in labeled))
+    final = list(last.labels)
     for i, (s, lab) in enumerate(zip(shapes, last.labels)):
         if not (lab >= 0).any():  # not part of the optimization (method "paper")
-            yield Predicted(i, meshes[i].labels_to_file(predict_shape(last.model, s)))
+            final[i] = predict_shape(last.model, s)
+            yield Predicted(i, meshes[i].labels_to_file(final[i]))
+    confidence = []
+    for i, (s, lab) in enumerate(zip(shapes, final)):
+        confidence.append(label_confidence(last.model.log_proba(s), lab, s.scribble))
+        yield _scored(i, meshes[i], s, confidence[-1])
+    hint = suggest([s.graph for s in shapes], [s.area for s in shapes], confidence)
+    if hint is not None:
+        mesh = meshes[hint.shape]
+        yield Suggested(hint.shape, np.flatnonzero(np.isin(mesh.file_to_proc, hint.faces)),
+                        int(mesh.proc_to_file[hint.face]), hint.score)
 
 
-def predict_run(model: TrainedModel, meshes: Sequence[Mesh], *, num_patches: int = 50) -> Iterator[FeaturesDone | Predicted]:
-    """Segment `meshes` with a trained model, one at a time (features, then prediction).
+def _scored(index: int, mesh: Mesh, shape, confidence: np.ndarray) -> Scored:
+    return Scored(index, mesh.labels_to_file(confidence), mean_confidence(confidence, shape.area))
+
+
+def predict_run(model: TrainedModel, meshes: Sequence[Mesh], *,
+                num_patches: int = 50) -> Iterator[FeaturesDone | Predicted | Scored]:
+    """Segment `meshes` with a trained model, one at a time (features, prediction, confidence).
 
     Yields
     ------
@@ -105,10 +148,15 @@ def predict_run(model: TrainedModel, meshes: Sequence[Mesh], *, num_patches: int
         After each shape is prepared.
     Predicted
         Its labels per file face.
+    Scored
+        Their confidence.
     """
     for i, mesh in enumerate(meshes):
         shape = prepare_shape(mesh, num_patches=num_patches)
         if model.learner.stage2 is not None:
             shape.label_context  # noqa: B018 - computed (or read) in the features phase
         yield FeaturesDone(i, i + 1, len(meshes))
-        yield Predicted(i, mesh.labels_to_file(predict_shape(model, shape)))
+        logp = model.log_proba(shape)
+        labels = predict_shape(model, shape, logp)
+        yield Predicted(i, mesh.labels_to_file(labels))
+        yield _scored(i, mesh, shape, label_confidence(logp, labels, shape.scribble))

@@ -11,13 +11,20 @@ from scribbleseg_core.engine.propagate import FaceEnergy
 from scribbleseg_core.engine.shape import ShapeData
 
 
-def predict_shape(model: TrainedModel, shape: ShapeData) -> np.ndarray:
+def predict_shape(model: TrainedModel, shape: ShapeData, log_proba: np.ndarray | None = None) -> np.ndarray:
     """Labels of `shape` from the model's network and the energy it was trained with.
 
     ``method="face"``: the face energy's graph cut with the network's log-probabilities
     (:class:`~scribbleseg_core.engine.propagate.FaceEnergy`), the shape's scribbles, if any,
     hard. ``method="paper"``: the patch-level cut of eq. 1–4 with the collection's patch
     descriptors.
+
+    Parameters
+    ----------
+    model : TrainedModel
+    shape : ShapeData
+    log_proba : (m, k) float ndarray, optional
+        ``model.log_proba(shape)`` when the caller has it already (e.g. for the confidence).
 
     Returns
     -------
@@ -26,7 +33,7 @@ def predict_shape(model: TrainedModel, shape: ShapeData) -> np.ndarray:
     """
     k = len(model.label_names)
     params = model.params
-    logp = model.log_proba(shape)
+    logp = model.log_proba(shape) if log_proba is None else log_proba
     if params.method == "face":
         return FaceEnergy(shape.graph, shape.scribble, k, params.propagation, shape.sdf).cut(logp)
     D = model.encoder.encode(shape.X, shape.area, shape.patch)

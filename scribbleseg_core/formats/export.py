@@ -8,14 +8,20 @@ and one label per file face, ``-1`` meaning unlabeled:
 - SEG: one label id per line (the PSB format).
 - OBJ: one group per label (``g <label name>``), with a material per label (``.mtl``).
 - GLB: one node and mesh per part, named by its label and colored by it.
-- JSON sidecar: label names and colors.
+- JSON sidecar: label names and colors, face counts, and a confidence summary per label.
+- VTP (VTK XML poly data, for ParaView): cell data ``Label`` and, when given, ``Confidence``.
+
+With a per-face confidence (:func:`~scribbleseg_core.engine.guidance.label_confidence`, in
+[0, 1]), the PLY also has a float face property ``confidence``.
 """
 
 from __future__ import annotations
 
+import base64
 import json
 import os
 import re
+import struct
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Literal
@@ -31,8 +37,10 @@ from scribbleseg_core.infra.atomic import (
     atomic_write_text,
 )
 
-ExportFormat = Literal["ply", "seg", "obj", "glb", "json"]
-EXPORT_FORMATS: tuple[str, ...] = ("ply", "seg", "obj", "glb", "json")
+ExportFormat = Literal["ply", "seg", "obj", "glb", "json", "vtp"]
+EXPORT_FORMATS: tuple[str, ...] = ("ply", "seg", "obj", "glb", "json", "vtp")
+#: Faces below this confidence are counted as unconfident in the JSON summary.
+UNCONFIDENT = 0.5
 UNLABELED_NAME = "unlabeled"
 
 
@@ -69,6 +77,7 @@ def export_labeled_mesh(
     labels: np.ndarray,
     label_set: LabelSet,
     formats: Sequence[str] = EXPORT_FORMATS,
+    confidence: np.ndarray | None = None,
 ) -> list[Path]:
     """Write `labels` on mesh (V, F) in each of `formats` as ``out_dir/stem.<ext>``.
 
@@ -82,7 +91,9 @@ def export_labeled_mesh(
     labels : (m,) int ndarray
         Label id per face, -1 for unlabeled.
     label_set : LabelSet
-    formats : sequence of {"ply", "seg", "obj", "glb", "json"}
+    formats : sequence of {"ply", "seg", "obj", "glb", "json", "vtp"}
+    confidence : (m,) float ndarray, optional
+        Confidence per face in [0, 1]: written into the PLY, the VTP and the JSON summary.
 
     Returns
     -------
@@ -93,11 +104,13 @@ def export_labeled_mesh(
     if bad:
         raise ValueError(f"unknown export format(s) {bad}; valid are {list(EXPORT_FORMATS)}")
     labels = check_labels(labels, len(F), len(label_set))
+    if confidence is not None:
+        confidence = check_confidence(confidence, len(F))
     out_dir = Path(out_dir)
     written = []
     for fmt in formats:
         if fmt == "ply":
-            written.append(write_ply(out_dir / f"{stem}.ply", V, F, labels, label_set))
+            written.append(write_ply(out_dir / f"{stem}.ply", V, F, labels, label_set, confidence))
         elif fmt == "seg":
             written.append(write_seg(out_dir / f"{stem}.seg", labels))
         elif fmt == "obj":
@@ -105,8 +118,21 @@ def export_labeled_mesh(
         elif fmt == "glb":
             written.append(write_glb(out_dir / f"{stem}.glb", V, F, labels, label_set))
         elif fmt == "json":
-            written.append(write_label_sidecar(out_dir / f"{stem}.labels.json", labels, label_set, mesh=stem))
+            written.append(write_label_sidecar(out_dir / f"{stem}.labels.json", labels, label_set, mesh=stem,
+                                               confidence=confidence))
+        elif fmt == "vtp":
+            written.append(write_vtp(out_dir / f"{stem}.vtp", V, F, labels, confidence))
     return written
+
+
+def check_confidence(confidence: np.ndarray, num_faces: int) -> np.ndarray:
+    """Validate a per-face confidence: shape (num_faces,), finite, in [0, 1]; (m,) float64."""
+    confidence = np.asarray(confidence, dtype=np.float64)
+    if confidence.shape != (num_faces,):
+        raise ScribblesegError(f"confidence must hold one value per face ({num_faces}); got shape {confidence.shape}")
+    if confidence.size and not (np.isfinite(confidence).all() and confidence.min() >= 0 and confidence.max() <= 1):
+        raise ScribblesegError("confidence must lie in [0, 1]")
+    return confidence
 
 
 def _rgba_u8(label_set: LabelSet, labels: np.ndarray) -> np.ndarray:
@@ -119,8 +145,9 @@ _PLY_FACE = np.dtype(
 )
 
 
-def write_ply(path, V, F, labels, label_set: LabelSet) -> Path:
-    """Binary little-endian PLY with per-face ``label`` (int), ``quality`` (float) and RGBA."""
+def write_ply(path, V, F, labels, label_set: LabelSet, confidence: np.ndarray | None = None) -> Path:
+    """Binary little-endian PLY with per-face ``label`` (int), ``quality`` (float), RGBA and,
+    when given, ``confidence`` (float)."""
     V = np.asarray(V, dtype="<f8")
     F = np.asarray(F)
     names = " ".join(f"{i}={_token(n)}" for i, n in enumerate(label_set.names))
@@ -132,14 +159,18 @@ def write_ply(path, V, F, labels, label_set: LabelSet) -> Path:
         f"element face {len(F)}\nproperty list uchar int vertex_indices\n"
         "property int label\nproperty float quality\n"
         "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n"
-        "end_header\n"
+        + ("property float confidence\n" if confidence is not None else "")
+        + "end_header\n"
     )
-    faces = np.empty(len(F), dtype=_PLY_FACE)
+    dtype = _PLY_FACE if confidence is None else np.dtype(_PLY_FACE.descr + [("confidence", "<f4")])
+    faces = np.empty(len(F), dtype=dtype)
     faces["n"] = 3
     faces["v"] = F
     faces["label"] = labels
     faces["quality"] = labels
     faces["rgba"] = _rgba_u8(label_set, labels)
+    if confidence is not None:
+        faces["confidence"] = confidence
     with atomic_write(path, "wb") as f:
         f.write(header.encode("ascii"))
         f.write(V.tobytes())
@@ -256,8 +287,11 @@ def write_glb(path, V, F, labels, label_set: LabelSet) -> Path:
     return Path(path)
 
 
-def write_label_sidecar(path, labels: np.ndarray, label_set: LabelSet, *, mesh: str) -> Path:
-    """JSON with label names, colors and per-label face counts."""
+def write_label_sidecar(path, labels: np.ndarray, label_set: LabelSet, *, mesh: str,
+                        confidence: np.ndarray | None = None) -> Path:
+    """JSON with label names, colors and per-label face counts; with `confidence`, also
+    ``"confidence"``: its mean, the faces below :data:`UNCONFIDENT`, and per label
+    (``"-1"`` for unlabeled faces) the mean, the minimum and the unconfident faces."""
     counts = np.bincount(labels + 1, minlength=len(label_set) + 1)
     doc = {
         "format": "scribbleseg-labels",
@@ -268,5 +302,70 @@ def write_label_sidecar(path, labels: np.ndarray, label_set: LabelSet, *, mesh: 
         **label_set.to_json(),
         "face_counts": {"-1": int(counts[0]), **{str(i): int(c) for i, c in enumerate(counts[1:])}},
     }
+    if confidence is not None:
+        doc["confidence"] = _confidence_summary(labels, confidence)
     atomic_write_text(path, json.dumps(doc, indent=1, separators=(",", ": ")) + "\n")
     return Path(path)
+
+
+def _confidence_summary(labels: np.ndarray, confidence: np.ndarray) -> dict:
+    def part(c: np.ndarray) -> dict:
+        return {"mean": round(float(c.mean()), 4), "min": round(float(c.min()), 4),
+                "unconfident_faces": int((c < UNCONFIDENT).sum())}
+
+    return {"mean": round(float(confidence.mean()), 4) if confidence.size else None,
+            "unconfident_below": UNCONFIDENT,
+            "unconfident_faces": int((confidence < UNCONFIDENT).sum()),
+            "per_label": {str(int(lab)): part(confidence[labels == lab]) for lab in np.unique(labels)}}
+
+
+def write_vtp(path, V, F, labels: np.ndarray, confidence: np.ndarray | None = None) -> Path:
+    """VTK XML poly data (``.vtp``, read by ParaView and VTK) with cell data ``Label``
+    (Int32, -1 unlabeled) and, when given, ``Confidence`` (Float32); arrays inline, base64
+    with a UInt64 byte-count header, little-endian."""
+    V = np.asarray(V, dtype="<f8")
+    F = np.asarray(F, dtype="<i8")
+    cells = [_vtk_array("Label", np.asarray(labels, dtype="<i4"), "Int32")]
+    if confidence is not None:
+        cells.append(_vtk_array("Confidence", np.asarray(confidence, dtype="<f4"), "Float32"))
+    doc = (
+        '<?xml version="1.0"?>\n'
+        '<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">\n'
+        "<PolyData>\n"
+        f'<Piece NumberOfPoints="{len(V)}" NumberOfVerts="0" NumberOfLines="0" NumberOfStrips="0" '
+        f'NumberOfPolys="{len(F)}">\n'
+        f'<Points>\n{_vtk_array("Points", V, "Float64", components=3)}</Points>\n'
+        "<Polys>\n"
+        f'{_vtk_array("connectivity", F.reshape(-1), "Int64")}'
+        f'{_vtk_array("offsets", np.arange(3, 3 * len(F) + 1, 3, dtype="<i8"), "Int64")}'
+        "</Polys>\n"
+        f'<CellData Scalars="Label">\n{"".join(cells)}</CellData>\n'
+        "</Piece>\n</PolyData>\n</VTKFile>\n"
+    )
+    atomic_write_text(path, doc)
+    return Path(path)
+
+
+def _vtk_array(name: str, values: np.ndarray, vtk_type: str, components: int = 1) -> str:
+    raw = np.ascontiguousarray(values).tobytes()
+    data = base64.b64encode(struct.pack("<Q", len(raw)) + raw).decode("ascii")
+    return (f'<DataArray type="{vtk_type}" Name="{name}" NumberOfComponents="{components}" '
+            f'format="binary">{data}</DataArray>\n')
+
+
+def read_vtp_cell_data(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """The cell data arrays of a ``.vtp`` written by :func:`write_vtp`, by name."""
+    import xml.etree.ElementTree as ET
+
+    types = {"Int32": "<i4", "Int64": "<i8", "Float32": "<f4", "Float64": "<f8"}
+    try:
+        root = ET.parse(path).getroot()
+        out = {}
+        for a in root.iter("CellData"):
+            for d in a.iter("DataArray"):
+                raw = base64.b64decode(d.text.strip())
+                (n,) = struct.unpack("<Q", raw[:8])
+                out[d.get("Name")] = np.frombuffer(raw[8:8 + n], dtype=types[d.get("type")]).copy()
+        return out
+    except (OSError, ET.ParseError, KeyError, ValueError, struct.error) as e:
+        raise ScribbleFileError(f"not a readable VTP file ({type(e).__name__}: {e})", Path(path)) from None

@@ -68,6 +68,11 @@ class DualGraph:
         scribble cue both walk it)."""
         return self.matrix(self.crease_distance())
 
+    @cached_property
+    def centroid_matrix(self) -> sp.csr_matrix:
+        """``matrix(centroid_dist)``, the surface metric between adjacent faces (built once)."""
+        return self.matrix(self.centroid_dist + 1e-12)
+
     @property
     def diffusion_weights(self) -> np.ndarray:
         """Finite-volume arc weights ``shared edge length / centroid distance``, (q,) float64."""

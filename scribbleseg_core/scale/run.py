@@ -31,6 +31,8 @@ from scribbleseg_core.scale.tasks import predict_task, signature_task
 ERRORS_NAME = "errors.json"
 #: Output formats of :func:`predict_many` (see :mod:`scribbleseg_core.formats.export`).
 DEFAULT_FORMATS: tuple[str, ...] = ("seg", "ply")
+#: What ``confidence=True`` writes: the confidence in the PLY, a JSON summary and a VTP.
+CONFIDENCE_FORMATS: tuple[str, ...] = ("seg", "ply", "json", "vtp")
 
 
 @dataclass
@@ -134,7 +136,8 @@ def predict_many(
     scheduler: str | None = None,
     force: bool = False,
     num_patches: int = 50,
-    formats: Sequence[str] = DEFAULT_FORMATS,
+    formats: Sequence[str] | None = None,
+    confidence: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> BatchSummary:
     """Segment `sources` with the model in `model_folder`, writing ``out/<key>.<format>``.
@@ -154,8 +157,12 @@ def predict_many(
         Redo shapes the manifest records as done.
     num_patches : int
         Primitive patches per shape (the paper-faithful models use them).
-    formats : sequence of str
-        Export formats per shape.
+    formats : sequence of str, optional
+        Export formats per shape; default :data:`DEFAULT_FORMATS`, or with `confidence`
+        :data:`CONFIDENCE_FORMATS`.
+    confidence : bool
+        Write each face's confidence into the exports (PLY property ``confidence``, the
+        JSON summary per label, VTP cell data ``Confidence``).
     progress : callable(done, total), optional
         Called after each shape (done, skipped or failed) on this process.
 
@@ -171,8 +178,8 @@ def predict_many(
     load_model(model_folder)  # a bad model is one error now, not one per shape
     out.mkdir(parents=True, exist_ok=True)
     out = out.resolve()
-    formats = tuple(formats)
-    job = job_fingerprint(model_folder, {"num_patches": num_patches, "formats": list(formats)})
+    formats = tuple(formats or (CONFIDENCE_FORMATS if confidence else DEFAULT_FORMATS))
+    job = job_fingerprint(model_folder, {"num_patches": num_patches, "formats": list(formats), "confidence": confidence})
     manifest = Manifest(out)
     manifest.compact()
     todo = [s for s in sources if force or not manifest.is_done(s, job)]
@@ -201,7 +208,7 @@ def predict_many(
     if todo:
         with dask_client(workers, scheduler) as client:
             calls = [(task, predict_task, (model_folder, job, os.fspath(s.path.resolve()), s.key, os.fspath(out),
-                                           formats, num_patches)) for task, s in by_task.items()]
+                                           formats, num_patches, confidence)) for task, s in by_task.items()]
             _run_tasks(client, calls, on_result)
     _write_errors(out, summary.errors)
     summary.seconds = time.perf_counter() - t0

@@ -36,8 +36,10 @@ def worker_model(folder: str, job: str):
 
 
 def predict_task(model_folder: str, job: str, source: str, key: str, out: str, formats: tuple[str, ...],
-                 num_patches: int) -> dict:
-    """Segment the mesh `source` with the model and write ``out/<key>.<format>`` atomically.
+                 num_patches: int, confidence: bool = False) -> dict:
+    """Segment the mesh `source` with the model and write ``out/<key>.<format>`` atomically;
+    with `confidence`, the exports carry each face's confidence
+    (:func:`~scribbleseg_core.engine.guidance.label_confidence`).
 
     Returns
     -------
@@ -48,6 +50,7 @@ def predict_task(model_folder: str, job: str, source: str, key: str, out: str, f
     """
     t0 = time.perf_counter()
     try:
+        from scribbleseg_core.engine.guidance import label_confidence
         from scribbleseg_core.engine.predict import predict_shape
         from scribbleseg_core.engine.shape import prepare_shape
         from scribbleseg_core.formats.export import export_labeled_mesh
@@ -56,10 +59,13 @@ def predict_task(model_folder: str, job: str, source: str, key: str, out: str, f
 
         model = worker_model(model_folder, job)
         mesh = load_mesh(source)
-        labels = mesh.labels_to_file(predict_shape(model, prepare_shape(mesh, num_patches=num_patches)))
+        shape = prepare_shape(mesh, num_patches=num_patches)
+        logp = model.log_proba(shape)
+        labels = predict_shape(model, shape, logp)
+        conf = mesh.labels_to_file(label_confidence(logp, labels)) if confidence else None
         target = Path(out) / key
-        written = export_labeled_mesh(target.parent, target.name, mesh.V_file, mesh.F_file, labels,
-                                      LabelSet.from_names(model.label_names), formats=formats)
+        written = export_labeled_mesh(target.parent, target.name, mesh.V_file, mesh.F_file, mesh.labels_to_file(labels),
+                                      LabelSet.from_names(model.label_names), formats=formats, confidence=conf)
         outputs = [p.relative_to(out).as_posix() for p in written]
         return {"key": key, "outputs": outputs, "faces": int(mesh.num_file_faces),
                 "seconds": time.perf_counter() - t0, "peak_mb": peak_memory_mb()}

@@ -134,3 +134,44 @@ def test_psb_ground_truth_exports_round_trip(tmp_path, psb_dir):
     export_labeled_mesh(tmp_path, "101", mesh.V_file, mesh.F_file, labels, ls)
     np.testing.assert_array_equal(read_ply_labels(tmp_path / "101.ply"), labels)
     np.testing.assert_array_equal(read_seg(tmp_path / "101.seg"), labels)
+
+
+def test_confidence_goes_into_the_ply_the_json_and_the_vtp(tmp_path, labeled):
+    import base64
+    import struct
+    import xml.etree.ElementTree as ET
+
+    from scribbleseg_core.formats.export import read_vtp_cell_data
+
+    V, F, labels, ls = labeled
+    conf = np.random.default_rng(1).random(len(F))
+    written = export_labeled_mesh(tmp_path, "x", V, F, labels, ls, formats=["ply", "json", "vtp"], confidence=conf)
+    assert [p.name for p in written] == ["x.ply", "x.labels.json", "x.vtp"]
+    ply = trimesh.load(tmp_path / "x.ply", process=False)
+    np.testing.assert_allclose(np.asarray(ply.metadata["_ply_raw"]["face"]["data"]["confidence"]).ravel(), conf,
+                               rtol=1e-6)
+    np.testing.assert_array_equal(read_ply_labels(tmp_path / "x.ply"), labels)
+    summary = json.loads((tmp_path / "x.labels.json").read_text())["confidence"]
+    assert summary["unconfident_faces"] == int((conf < 0.5).sum())
+    assert summary["per_label"]["-1"]["mean"] == pytest.approx(conf[labels == -1].mean(), abs=1e-4)
+    cells = read_vtp_cell_data(tmp_path / "x.vtp")
+    np.testing.assert_array_equal(cells["Label"], labels)
+    np.testing.assert_allclose(cells["Confidence"], conf, rtol=1e-6)
+    # the geometry as VTK reads it: points, then triangles as connectivity + offsets
+    piece = ET.parse(tmp_path / "x.vtp").getroot().find("PolyData/Piece")
+    assert int(piece.get("NumberOfPolys")) == len(F) and int(piece.get("NumberOfPoints")) == len(V)
+
+    def array(path, dtype):
+        raw = base64.b64decode(piece.find(path).text)
+        return np.frombuffer(raw[8:8 + struct.unpack("<Q", raw[:8])[0]], dtype)
+
+    np.testing.assert_allclose(array("Points/DataArray", "<f8").reshape(-1, 3), V)
+    np.testing.assert_array_equal(array("Polys/DataArray[@Name='connectivity']", "<i8").reshape(-1, 3), F)
+    np.testing.assert_array_equal(array("Polys/DataArray[@Name='offsets']", "<i8"), 3 * np.arange(1, len(F) + 1))
+    # without confidence: no such property or array
+    export_labeled_mesh(tmp_path, "y", V, F, labels, ls, formats=["vtp", "json"])
+    assert set(read_vtp_cell_data(tmp_path / "y.vtp")) == {"Label"}
+    assert "confidence" not in json.loads((tmp_path / "y.labels.json").read_text())
+    for bad in (conf[:-1], conf * 2, np.full(len(F), np.nan)):
+        with pytest.raises(ScribblesegError, match="confidence"):
+            export_labeled_mesh(tmp_path, "z", V, F, labels, ls, formats=["ply"], confidence=bad)
