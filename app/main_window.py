@@ -9,14 +9,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from PySide6.QtCore import QObject, Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QColor, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QColorDialog,
+    QDialog,
     QFileDialog,
     QInputDialog,
     QMainWindow,
     QMessageBox,
+    QTableWidget,
+    QTableWidgetItem,
     QVBoxLayout,
     QWidget,
 )
@@ -25,7 +29,9 @@ from scribbleseg_app.controllers.frames import FrameClock
 from scribbleseg_app.controllers.jobs import Dispatcher
 from scribbleseg_app.controllers.preview import PreviewController
 from scribbleseg_app.controllers.run import RunController
-from scribbleseg_app.controllers.view import ViewController
+from scribbleseg_app.controllers.tools import ToolsController
+from scribbleseg_app.controllers.view import SHOW_MODES, ViewController
+from scribbleseg_app.keys import KEYS, sheet
 from scribbleseg_app.model import CollectionModel
 from scribbleseg_app.widgets.panels import LabelsPanel, RunPanel, ShapesPanel, ToolsPanel
 
@@ -83,7 +89,7 @@ class MainWindow(QMainWindow):
     Attributes
     ----------
     model : CollectionModel
-    view, runs, previews, files : the controllers
+    view, runs, previews, files, toolbox : the controllers
     shapes, labels, tools, run_panel : the panels
     frames : FrameClock
     """
@@ -98,6 +104,7 @@ class MainWindow(QMainWindow):
         self.model = m = CollectionModel(autosave_dir)
         self.dispatcher = QtDispatcher(self)
         self.frames = FrameClock()
+        self.toolbox = ToolsController(m, self.dispatcher)
         self._viewport = None
         if viewport is not None:
             self._attach(viewport)
@@ -106,7 +113,7 @@ class MainWindow(QMainWindow):
         self.previews = PreviewController(m, self.dispatcher)
         self.files = FilesController(m, self.dispatcher)
         self.shapes = ShapesPanel(m, self.runs)
-        self.labels = LabelsPanel(m)
+        self.labels = LabelsPanel(m, self.view)
         self.tools = ToolsPanel()
         self.run_panel = RunPanel(self.runs)
         panel = QWidget()
@@ -118,6 +125,7 @@ class MainWindow(QMainWindow):
         self.setCentralWidget(panel)
         self._quitting = False  # set once the user chose to quit (skips the unsaved-work question)
         self._placed = False
+        self._focus_on = None  # a suggestion to turn the camera to once its shape is shown
         self._build_menus()
         self._connect()
         self.timer = QTimer(self)
@@ -150,10 +158,11 @@ class MainWindow(QMainWindow):
         for action in (self.undo_action, self.redo_action):
             action.setShortcutContext(app_wide)
             edit.addAction(action)
-        keys = [(str(k), lambda k=k: self.choose_label(k - 1)) for k in range(1, 10)]
-        keys += [("[", lambda: self._grow_brush(-5)), ("]", lambda: self._grow_brush(5))]
-        for key, slot in keys:
-            QShortcut(QKeySequence(key), self, activated=slot, context=app_wide)
+        help_menu = self.menuBar().addMenu("&Help")
+        help_menu.addAction(QAction("Keys", self, triggered=self.show_keys))
+        for key in KEYS:  # undo and redo are the Edit menu's
+            if key.command not in ("undo", "redo"):
+                QShortcut(QKeySequence(key.keys), self, activated=lambda c=key.command: self.command(c), context=app_wide)
 
     def _connect(self) -> None:
         m, tools, labels, run = self.model, self.tools, self.labels, self.run_panel
@@ -165,6 +174,11 @@ class MainWindow(QMainWindow):
         labels.delete_button.clicked.connect(self._on_delete_label)
         tools.show_combo.currentTextChanged.connect(self.view.set_mode)
         tools.paint_box.toggled.connect(lambda on: setattr(self.viewport, "paint_mode", on))
+        tools.brush_radio.toggled.connect(lambda on: on and self.toolbox.set_tool("brush"))
+        tools.fill_radio.toggled.connect(lambda on: on and self.toolbox.set_tool("fill"))
+        tools.fill_bound_combo.currentIndexChanged.connect(
+            lambda i: self.toolbox.set_fill_bound(("creases", "labels")[i]))
+        tools.crease_slider.valueChanged.connect(lambda v: self.toolbox.set_crease(v / 10.0))
         tools.eraser_box.toggled.connect(lambda on: m.set_current_label(-1 if on else max(labels.list.currentRow(), 0)))
         tools.brush_slider.valueChanged.connect(lambda v: m.set_brush_radius(v / 1000.0))
         tools.preview_box.toggled.connect(self._on_preview_toggled)
@@ -172,6 +186,12 @@ class MainWindow(QMainWindow):
         run.stop_button.clicked.connect(self.runs.stop)
         run.predict_button.clicked.connect(lambda: self._report(self.runs.predict()))
         run.export_button.clicked.connect(self._on_export)
+        run.accept_button.clicked.connect(self.accept_current)
+        run.suggest_button.clicked.connect(self.go_to_suggestion)
+        self.toolbox.highlight_changed.connect(self.view.set_highlight)
+        self.toolbox.status.connect(status)
+        self.view.shown.connect(self._on_shown)
+        m.suggestion_changed.connect(self._on_suggestion)
         self.runs.started.connect(self._on_run_started)
         self.runs.step.connect(lambda snap: status(f"round {snap.iteration}: {snap.phase} ({snap.seconds:.1f} s)"))
         self.runs.finished.connect(self._on_run_finished)
@@ -201,7 +221,7 @@ class MainWindow(QMainWindow):
         """Make `viewport` this window's: its strokes go to this window's model."""
         self._viewport = viewport
         viewport.paint_mode = False
-        viewport.set_paint_handlers(self.model.begin_stroke, self.model.paint_at, self.model.end_stroke)
+        viewport.set_paint_handlers(self.toolbox.begin, self.toolbox.at, self.toolbox.end)
         viewport.set_key_handler(self._on_viewport_key)
         viewport.set_hover_handler(self._on_hover)
 
@@ -212,14 +232,108 @@ class MainWindow(QMainWindow):
 
     def _on_viewport_key(self, command: str) -> None:
         """The same keys as the window's shortcuts, pressed in polyscope's window."""
+        self.command(command)
+
+    def command(self, command: str) -> None:
+        """Do what a key of :data:`~scribbleseg_app.keys.KEYS` says."""
+        m, tools = self.model, self.tools
         if command == "undo":
-            self.model.undo()
+            m.undo()
         elif command == "redo":
-            self.model.redo()
+            m.redo()
         elif command.startswith("label "):
             self.choose_label(int(command.split()[1]))
         elif command in ("brush -", "brush +"):
             self._grow_brush(-5 if command == "brush -" else 5)
+        elif command == "eraser":
+            tools.eraser_box.toggle()
+        elif command == "tool brush":
+            tools.brush_radio.setChecked(True)
+        elif command == "tool fill":
+            tools.fill_radio.setChecked(True)
+        elif command == "paint":
+            tools.paint_box.toggle()
+        elif command == "hide label":
+            self.labels.toggle_visible(self.labels.list.currentRow())
+        elif command == "only current":
+            self.labels.only_box.toggle()
+        elif command == "confidence":
+            mode = SHOW_MODES[0] if tools.show_combo.currentText() == "Confidence" else "Confidence"
+            tools.show_combo.setCurrentText(mode)
+        elif command == "suggestion":
+            self.go_to_suggestion()
+        elif command == "accept":
+            self.accept_current()
+        elif command in ("next shape", "previous shape") and m.shapes:
+            rows = self.shapes.order
+            row = rows.index(m.current) if m.current in rows else 0
+            m.set_current(rows[(row + (1 if command == "next shape" else -1)) % len(rows)])
+        elif command == "segment":
+            self._report(self.runs.segment())
+        elif command == "keys":
+            self.show_keys()
+
+    def show_keys(self) -> None:
+        """*Help → Keys*: every key and what it does."""
+        rows = sheet()
+        dialog = QDialog(self)
+        dialog.setWindowTitle("Keys")
+        table = QTableWidget(len(rows), 2, dialog)
+        table.setHorizontalHeaderLabels(["Key", "Does"])
+        for r, (key, text) in enumerate(rows):
+            table.setItem(r, 0, QTableWidgetItem(key))
+            table.setItem(r, 1, QTableWidgetItem(text))
+        table.verticalHeader().setVisible(False)
+        table.horizontalHeader().setStretchLastSection(True)
+        table.resizeColumnsToContents()
+        table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
+        QVBoxLayout(dialog).addWidget(table)
+        dialog.resize(640, 520)
+        dialog.setModal(False)
+        dialog.show()
+        self.keys_dialog = dialog
+
+    # ---------------------------------------------------------------- guidance
+
+    def accept_current(self) -> None:
+        """Accept the current shape's result as its labels (key A)."""
+        m = self.model
+        if m.current < 0:
+            return
+        n = m.accept(m.current)
+        if n:
+            self.statusBar().showMessage(f"{m.shapes[m.current].name}: accepted ({n} faces labeled); correct it with "
+                                         "the brush or the fill, and the next run trains on it")
+        else:
+            self.statusBar().showMessage("nothing to accept: this shape has no result, or every face is painted")
+
+    def go_to_suggestion(self) -> None:
+        """Show the shape and turn the camera to the region where a stroke would help most (key N)."""
+        s = self.model.suggestion
+        if s is None:
+            self.statusBar().showMessage("no suggestion: run 'Segment collection' first (or every face is confident)")
+            return
+        self._focus_on = s
+        if self.model.current != s.index:
+            self.model.set_current(s.index)  # focused once shown
+        elif self.view.showing == s.index:
+            self._on_shown(s.index)
+
+    def _on_shown(self, index: int) -> None:
+        s, self._focus_on = self._focus_on, None
+        if s is None or s.index != index or self._viewport is None:
+            return
+        mesh = self.model.shapes[index].mesh()
+        tri = mesh.V_file[mesh.F_file[s.face]]
+        self.viewport.focus(tri.mean(axis=0), np.cross(tri[1] - tri[0], tri[2] - tri[0]))
+        self.statusBar().showMessage(f"{mesh.name}: paint in the highlighted region ({len(s.faces)} unsure faces)")
+
+    def _on_suggestion(self) -> None:
+        s = self.model.suggestion
+        self.run_panel.suggest_button.setEnabled(s is not None)
+        if s is not None:
+            self.run_panel.suggest_button.setToolTip(f"{self.model.shapes[s.index].name}: a region of {len(s.faces)} "
+                                                     "faces the network is unsure of")
 
     def choose_label(self, label: int) -> None:
         """Paint with `label` (the eraser goes off)."""
@@ -272,6 +386,8 @@ class MainWindow(QMainWindow):
             self.previews.request(self.model.current)
 
     def _on_hover(self, face: int) -> None:
+        if self.tools.paint_box.isChecked():
+            self.toolbox.hover(face)
         text = self.view.hover_text(face)
         if text:
             self.statusBar().showMessage(text)
@@ -433,6 +549,7 @@ class MainWindow(QMainWindow):
         self.runs.shutdown()  # waits for the run's thread (it stops at its next step)
         self.previews.close()
         self.view.shutdown()
+        self.toolbox.shutdown()
         self.files.shutdown()  # a save or an export under way finishes its files
         super().closeEvent(event)
 

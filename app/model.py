@@ -20,6 +20,16 @@ from scribbleseg_core.formats.mesh import Mesh, load_mesh
 ShapeState = Literal["untouched", "scribbled", "labeled", "predicted", "error"]
 
 
+@dataclass(frozen=True, eq=False)
+class Suggestion:
+    """Where a stroke is expected to help most after a run: shape `index`, the unconfident
+    region's file faces (k,), and the file face at its heart."""
+
+    index: int
+    faces: np.ndarray
+    face: int
+
+
 @dataclass
 class ShapeEntry:
     """One shape of the collection; the mesh loads on first use."""
@@ -31,6 +41,8 @@ class ShapeEntry:
     state: ShapeState = "untouched"
     error: str | None = None
     edits: int = 0  # strokes, undos and restores so far: a run's result is stale for a shape edited since it began
+    confidence: np.ndarray | None = None  # (m0,) in [0, 1]: how sure the last run is of each face's label
+    mean_confidence: float | None = None  # its area-weighted mean
     _mesh: Mesh | None = None
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
@@ -82,6 +94,10 @@ class CollectionModel:
     unsaved_changed(unsaved)
         The collection now has (True) or no longer has (False) changes not saved to a
         session: scribbles, labels, results, added meshes.
+    confidence_changed(index)
+        Shape `index` has a new per-face confidence (after a run), or lost it.
+    suggestion_changed()
+        :attr:`suggestion` (where to paint next) changed.
     """
 
     def __init__(self, autosave_dir: str | os.PathLike | None = None) -> None:
@@ -111,7 +127,11 @@ class CollectionModel:
         self.result_changed = Event()
         self.edit_committed = Event()
         self.unsaved_changed = Event()
+        self.confidence_changed = Event()
+        self.suggestion_changed = Event()
+        self.suggestion: Suggestion | None = None
         self._unsaved = False
+        self._brush_lock = threading.Lock()
 
     @property
     def unsaved(self) -> bool:
@@ -157,6 +177,7 @@ class CollectionModel:
         self.shapes = shapes
         self._layers.clear()
         self._brushes.clear()
+        self.suggestion = None
         self.label_set = label_set
         self.trained_model = model
         self.current = -1
@@ -214,6 +235,35 @@ class CollectionModel:
         self._set_unsaved(True)
         self.state_changed.emit(index)
         self.result_changed.emit(index)
+
+    def set_confidence(self, index: int, confidence: np.ndarray | None, mean: float | None = None) -> None:
+        """Per-face confidence (m0,) in [0, 1] of shape `index`'s result, and its mean (None: unknown)."""
+        entry = self.shapes[index]
+        entry.confidence = None if confidence is None else np.asarray(confidence, dtype=np.float64)
+        entry.mean_confidence = mean
+        self.confidence_changed.emit(index)
+
+    def set_suggestion(self, suggestion: Suggestion | None) -> None:
+        """Where to paint next (None: no suggestion)."""
+        self.suggestion = suggestion
+        self.suggestion_changed.emit()
+
+    def accept(self, index: int) -> int:
+        """Accept shape `index`'s result as its labels: every face without scribbles takes the
+        label shown, as scribbles, in one undo step (correct it with the brush or the fill
+        after; the next run trains on it as a fully labeled shape). Returns the faces painted;
+        0 when there is no result to accept."""
+        labels = self.shown_labels(index)
+        if labels is None or self.shapes[index].state == "error":
+            return 0
+        layer = self.layer(index)
+        faces = np.flatnonzero((layer.labels < 0) & (labels >= 0))
+        changed = self.paint_faces(index, faces, by_face=labels[faces]) if faces.size else faces
+        entry = self.shapes[index]
+        if len(changed) and entry.state != "scribbled":  # its labels are the user's now: it trains as painted
+            entry.state = "scribbled"
+            self.state_changed.emit(index)
+        return int(len(changed))
 
     def set_preview(self, index: int, labels: np.ndarray | None) -> None:
         """The live preview (m0,) of shape `index` after its latest edit (None: nothing to preview)."""
@@ -489,15 +539,18 @@ class CollectionModel:
             self.error.emit("add a label before painting")
             return
         index = self.current
-        if index not in self._brushes:
-            mesh = self.shapes[index].mesh()
-            V, F = mesh.V_file, mesh.F_file
-            self._brushes[index] = Brush(V[F].mean(axis=1), float(np.linalg.norm(V.max(0) - V.min(0))))
-        faces = self._brushes[index].faces_along(point, self._last_point, self.brush_radius)
+        faces = self.brush(index).faces_along(point, self._last_point, self.brush_radius)
         self._last_point = np.asarray(point, dtype=np.float64)
         changed = self.layer(index).paint(faces, self.current_label)
         if len(changed):
             self.scribbles_changed.emit(index, changed)
+
+    def brush(self, index: int) -> Brush:
+        """The surface brush of shape `index` (its face graph), made on first use (any thread)."""
+        with self._brush_lock:
+            if index not in self._brushes:
+                self._brushes[index] = Brush(self.shapes[index].mesh())
+            return self._brushes[index]
 
     def paint_stroke_faces(self, faces) -> np.ndarray:
         """Within a stroke (:meth:`begin_stroke` … :meth:`end_stroke`) on the current shape:
@@ -516,12 +569,19 @@ class CollectionModel:
         if self.layer(self.current).end():
             self._after_edit(self.current)
 
-    def paint_faces(self, index: int, faces, label: int) -> np.ndarray:
-        """Give file faces `faces` of shape `index` the scribble `label` (-1 erases) in one undo
-        step, as a finished stroke does (autosave, preview). Returns the faces that changed."""
+    def paint_faces(self, index: int, faces, label: int | None = None, *, by_face: np.ndarray | None = None) -> np.ndarray:
+        """Give file faces `faces` of shape `index` the scribble `label` (-1 erases), or each
+        its own label from `by_face` (same length as `faces`), in one undo step, as a finished
+        stroke does (autosave, preview). Returns the faces that changed."""
         layer = self.layer(index)
+        faces = np.asarray(faces, dtype=np.int64)
         layer.begin()
-        changed = layer.paint(np.asarray(faces, dtype=np.int64), int(label))
+        if by_face is None:
+            changed = layer.paint(faces, int(label))
+        else:
+            by_face = np.asarray(by_face, dtype=np.int64)
+            changed = np.concatenate([layer.paint(faces[by_face == k], int(k)) for k in np.unique(by_face)]
+                                     or [np.zeros(0, np.int64)])
         if layer.end():
             self.scribbles_changed.emit(index, changed)
             self._after_edit(index)

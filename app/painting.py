@@ -92,31 +92,45 @@ class ScribbleLayer:
 
 
 class Brush:
-    """Faces under a round brush on a mesh: those whose centroid lies within `radius` of
-    the brush center, with the path between two samples filled so fast drags leave no gaps.
+    """Faces under a round brush on a mesh, the radius measured along the surface: those whose
+    centroid lies within `radius` of the brush center by the shortest path over adjacent
+    faces (:func:`~scribbleseg_core.engine.regions.surface_disc`), so a stroke over a thin part
+    (a finger, a chair leg) does not reach the surface behind it. The path between two samples
+    is filled so fast drags leave no gaps.
 
     Parameters
     ----------
-    centroids : (m, 3) float64 ndarray
-        Face centroids.
-    scale : float
-        Length that radius 1.0 means (the mesh's bounding-box diagonal).
+    mesh : Mesh
+        Brush samples are points in its file coordinates; faces are file faces.
     """
 
-    def __init__(self, centroids: np.ndarray, scale: float):
-        self.tree = cKDTree(centroids)
-        self.scale = float(scale)
+    def __init__(self, mesh):
+        from scribbleseg_core.geometry.dual_graph import dual_graph
+
+        V, F = mesh.V, mesh.F
+        self.graph = dual_graph(V, F)
+        self.tree = cKDTree(V[F].mean(axis=1))
+        self.scale = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+        self._file_to_proc = mesh.file_to_proc  # a dropped duplicate or degenerate file face follows its twin
 
     def faces_along(self, p: np.ndarray, q: np.ndarray | None, radius: float) -> np.ndarray:
-        """Faces within ``radius · scale`` of the segment from `q` (previous sample, or
-        None) to `p`, (k,) int64."""
+        """File faces within ``radius · scale`` along the surface of the segment from `q`
+        (previous sample, or None) to `p`, (k,) int64 sorted; scale is the bounding-box diagonal."""
+        from scribbleseg_core.engine.regions import surface_disc
+
         r = radius * self.scale
         p = np.asarray(p, dtype=np.float64)
         if q is None:
             pts = p[None]
         else:
-            n = max(1, int(np.ceil(np.linalg.norm(p - np.asarray(q)) / (0.5 * r))))
+            n = max(1, int(np.ceil(np.linalg.norm(p - np.asarray(q)) / (0.5 * max(r, 1e-12)))))
             t = np.linspace(0.0, 1.0, n + 1)[:, None]
             pts = np.asarray(q)[None] * (1 - t) + p[None] * t
-        hits = self.tree.query_ball_point(pts, r)
-        return np.unique(np.concatenate([np.asarray(h, dtype=np.int64) for h in hits])) if len(hits) else np.zeros(0, np.int64)
+        seeds = np.unique(self.tree.query(pts)[1])
+        return self.file_faces(surface_disc(self.graph, seeds, r))
+
+    def file_faces(self, faces: np.ndarray) -> np.ndarray:
+        """The file faces of repaired faces `faces`, (k,) int64 sorted."""
+        chosen = np.zeros(self.graph.num_faces, bool)
+        chosen[np.asarray(faces, dtype=np.int64)] = True
+        return np.flatnonzero(chosen[self._file_to_proc]).astype(np.int64)

@@ -72,8 +72,7 @@ class PolyscopeViewport:
 
     def set_key_handler(self, handler) -> None:
         """``handler(command)`` for keys pressed while polyscope's window has focus (Qt
-        never sees those): ``"undo"``, ``"redo"``, ``"label 0"`` .. ``"label 8"``,
-        ``"brush -"``, ``"brush +"``."""
+        never sees those): the commands of :data:`~scribbleseg_app.keys.KEYS`."""
         self._key_handler = handler
 
     def set_hover_handler(self, handler) -> None:
@@ -93,12 +92,18 @@ class PolyscopeViewport:
         self._ps.set_do_default_mouse_interaction(not on)
 
     def set_paint_handlers(self, begin, paint, end) -> None:
-        """Callbacks for a stroke: ``begin()``, ``paint(point (3,))`` per frame, ``end()``."""
+        """Callbacks for a stroke: ``begin()``, ``paint(point (3,), face)`` per frame (the file
+        face under the mouse, -1 if unknown), ``end()``."""
         self._handlers = (begin, paint, end)
 
     def _pick(self, xy):
+        """(point (3,), face) on the shape under screen position `xy`, or None."""
         r = self._ps.pick(screen_coords=(int(xy[0]), int(xy[1])))
-        return np.asarray(r.position, dtype=np.float64) if r.is_hit and r.structure_name == STRUCTURE else None
+        if not (r.is_hit and r.structure_name == STRUCTURE):
+            return None
+        data = r.structure_data
+        face = int(data["index"]) if data.get("element_type") == "face" else -1
+        return np.asarray(r.position, dtype=np.float64), face
 
     def _on_frame(self) -> None:
         """Polyscope's user callback: only samples the mouse. Picking and color updates
@@ -139,9 +144,9 @@ class PolyscopeViewport:
         begin, paint, end = self._handlers
         if self._painting:
             if inp.down[0]:
-                p = self._pick(inp.pos)
-                if p is not None:
-                    paint(p)
+                hit = self._pick(inp.pos)
+                if hit is not None:
+                    paint(*hit)
             else:
                 self._painting = False
                 end()
@@ -149,11 +154,11 @@ class PolyscopeViewport:
         if inp.captured:
             return
         if inp.clicked and not inp.shift:
-            p = self._pick(inp.pos)
-            if p is not None:
+            hit = self._pick(inp.pos)
+            if hit is not None:
                 self._painting = True
                 begin()
-                paint(p)
+                paint(*hit)
                 return
         self._camera(inp)
 
@@ -196,6 +201,7 @@ class PolyscopeViewport:
         ps = self._ps
         ps.remove_all_structures()
         mesh = ps.register_surface_mesh(STRUCTURE, V, F, smooth_shade=False, edge_width=0.0)
+        mesh.set_selection_mode("faces_only")  # a pick names the face under the mouse, never a vertex
         mesh.add_color_quantity(COLORS, colors, defined_on="faces", enabled=True)
         # a three-quarter view from above, framing the bounding box
         lo, hi = V.min(axis=0), V.max(axis=0)
@@ -203,6 +209,18 @@ class PolyscopeViewport:
         d = np.array([0.7, 1.0, 0.55])
         self._orbit = (center, size * float(np.linalg.norm(d)), float(np.arctan2(d[1], d[0])),
                        float(np.arcsin(d[2] / np.linalg.norm(d))))
+        self._apply_orbit()
+
+    def focus(self, point: np.ndarray, normal: np.ndarray) -> None:
+        """Turn the camera to look at `point` (3,) from the side its surface `normal` (3,)
+        faces, at the current distance."""
+        if self._orbit is None:
+            return
+        _, dist, _, _ = self._orbit
+        n = np.asarray(normal, dtype=np.float64)
+        n = n / max(float(np.linalg.norm(n)), 1e-12)
+        self._orbit = (np.asarray(point, dtype=np.float64), dist, float(np.arctan2(n[1], n[0])),
+                       float(np.clip(np.arcsin(np.clip(n[2], -1, 1)), -1.5, 1.5)))
         self._apply_orbit()
 
     def set_colors(self, colors: np.ndarray) -> None:
@@ -242,15 +260,14 @@ class PolyscopeViewport:
 
 
 def _key_commands(psim, io) -> tuple:
-    """Commands for the keys pressed this frame (see ``set_key_handler``)."""
+    """Commands for the keys pressed this frame (:data:`~scribbleseg_app.keys.KEYS`; see
+    ``set_key_handler``); the brush keys repeat while held."""
+    from scribbleseg_app.keys import KEYS
+
     out = []
-    if psim.IsKeyPressed(psim.ImGuiKey_Z, False) and io.KeyCtrl:
-        out.append("redo" if io.KeyShift else "undo")
-    for k in range(1, 10):
-        if psim.IsKeyPressed(getattr(psim, f"ImGuiKey_{k}"), False) and not io.KeyCtrl:
-            out.append(f"label {k - 1}")
-    if psim.IsKeyPressed(psim.ImGuiKey_LeftBracket):
-        out.append("brush -")
-    if psim.IsKeyPressed(psim.ImGuiKey_RightBracket):
-        out.append("brush +")
+    for key in KEYS:
+        if key.imgui is None or key.ctrl != bool(io.KeyCtrl) or key.shift != bool(io.KeyShift):
+            continue
+        if psim.IsKeyPressed(getattr(psim, f"ImGuiKey_{key.imgui}"), key.command in ("brush -", "brush +")):
+            out.append(key.command)
     return tuple(out)

@@ -13,12 +13,13 @@ from dataclasses import replace
 import numpy as np
 
 from scribbleseg_core.engine.optimize import SegmentParams
-from scribbleseg_core.engine.pipeline import FeaturesDone, Predicted, StepDone
+from scribbleseg_core.engine.pipeline import FeaturesDone, Predicted, Scored, StepDone, Suggested
 from scribbleseg_core.engine.pipeline import collection_run as _collection_run
 from scribbleseg_core.engine.pipeline import predict_run as _predict_run
 from scribbleseg_core.formats.mesh import Mesh, load_mesh
 
-__all__ = ["FeaturesDone", "MeshFiles", "Predicted", "StepDone", "collection_run", "limit_threads", "predict_run"]
+__all__ = ["FeaturesDone", "MeshFiles", "Predicted", "Scored", "StepDone", "Suggested", "collection_run",
+           "limit_threads", "predict_run"]
 
 
 def limit_threads(n: int = 1) -> None:
@@ -60,16 +61,17 @@ def collection_run(
     scribbles: Sequence[np.ndarray | None],
     label_names: Sequence[str],
     params: SegmentParams = SegmentParams(),
-) -> Iterator[FeaturesDone | StepDone | Predicted]:
+    warm=None,
+) -> Iterator[FeaturesDone | StepDone | Predicted | Scored | Suggested]:
     """:func:`scribbleseg_core.engine.pipeline.collection_run` with torch on one thread, so the
-    renderer keeps the other core. A generator function itself (``yield from``), so that its
-    job streams the messages."""
+    renderer keeps the other core; `warm`: the previous run's model to continue training. A
+    generator function itself (``yield from``), so that its job streams the messages."""
     limit_threads(1)
     params = replace(params, network=replace(params.network, threads=1))
-    yield from _collection_run(meshes, scribbles, label_names, params)
+    yield from _collection_run(meshes, scribbles, label_names, params, warm=warm)
 
 
-def predict_run(model, meshes: Sequence[Mesh]) -> Iterator[FeaturesDone | Predicted]:
+def predict_run(model, meshes: Sequence[Mesh]) -> Iterator[FeaturesDone | Predicted | Scored]:
     """:func:`scribbleseg_core.engine.pipeline.predict_run` on one torch thread (see above)."""
     limit_threads(1)
     yield from _predict_run(replace(model, learner=model.learner.with_threads(1)), meshes)

@@ -16,16 +16,18 @@ from scribbleseg_app.model import load_meshes, write_session
 
 
 def export_shapes(folder, items, label_set) -> tuple[list[Path], list[str]]:
-    """Write every ``(entry, labels (m0,))`` of `items` as PLY, SEG, OBJ, GLB and JSON into
-    `folder`. Returns the files written and one message per shape that failed."""
+    """Write every ``(entry, labels (m0,), confidence (m0,) or None)`` of `items` as PLY, SEG,
+    OBJ, GLB, JSON and VTP into `folder` (the confidence, when known, into the PLY, the JSON and
+    the VTP). Returns the files written and one message per shape that failed."""
     from scribbleseg_core.errors import ScribblesegError
     from scribbleseg_core.formats.export import export_labeled_mesh
 
     written, problems = [], []
-    for entry, labels in items:
+    for entry, labels, confidence in items:
         try:
             mesh = entry.mesh()
-            written += export_labeled_mesh(folder, entry.name, mesh.V_file, mesh.F_file, labels, label_set)
+            written += export_labeled_mesh(folder, entry.name, mesh.V_file, mesh.F_file, labels, label_set,
+                                           confidence=confidence)
         except (OSError, ScribblesegError) as e:
             problems.append(f"{entry.name}: export failed: {e}")
     return written, problems
@@ -97,8 +99,8 @@ class FilesController:
 
     def export(self, folder: str | os.PathLike, only: list[int] | None = None, *, wait: bool = False) -> list[Path] | None:
         """Export every shape (or those in `only`) that has a result or scribbles, as the user
-        sees it, into `folder`; in the background, or here with `wait` (then the files written
-        are returned)."""
+        sees it, into `folder`, with the last run's confidence where it scores the labels shown;
+        in the background, or here with `wait` (then the files written are returned)."""
         items = []
         m = self.model
         for i, entry in enumerate(m.shapes):
@@ -107,7 +109,9 @@ class FilesController:
             labels = m.shown_labels(i)
             labels = labels.copy() if labels is not None else m.scribble_labels(i)  # a copy; no mesh loads here
             if labels is not None and (labels >= 0).any():  # neither a result nor scribbles otherwise
-                items.append((entry, labels))
+                # the confidence scores the run's result: not a newer preview, not scribbles alone
+                scored = entry.confidence is not None and entry.preview is None and entry.labels is not None
+                items.append((entry, labels, entry.confidence.copy() if scored else None))
         folder = Path(folder)
 
         def done(result):

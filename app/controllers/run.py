@@ -103,8 +103,9 @@ class RunController:
         return len(self._indices)
 
     def segment(self) -> str | None:
-        """Segment the collection (shapes without scribbles take part). Returns why it
-        cannot start, or None when it started."""
+        """Segment the collection (shapes without scribbles take part), continuing the training
+        of the last run's network when there is one. Returns why it cannot start, or None when
+        it started."""
         from scribbleseg_app.controllers.engine_runs import MeshFiles, collection_run
 
         from scribbleseg_core.engine.optimize import SegmentParams
@@ -119,8 +120,9 @@ class RunController:
         self.history = EnergyHistory()
         self.changed = set()
         meshes = MeshFiles([m.shapes[i].path for i in usable])  # read by the run itself
-        self._start("segmentation", collection_run, (meshes, scribbles, m.label_set.names, self.params or SegmentParams()),
-                     usable)
+        m.set_suggestion(None)
+        self._start("segmentation", collection_run,
+                    (meshes, scribbles, m.label_set.names, self.params or SegmentParams(), m.trained_model), usable)
         return None
 
     def predict(self) -> str | None:
@@ -190,7 +192,8 @@ class RunController:
             self._end("the run was stopped: another collection was opened")
 
     def _on_message(self, msg) -> None:
-        from scribbleseg_app.controllers.engine_runs import FeaturesDone, Predicted, StepDone
+        from scribbleseg_app.controllers.engine_runs import FeaturesDone, Predicted, Scored, StepDone, Suggested
+        from scribbleseg_app.model import Suggestion
 
         m = self.model  # a run of another collection was cancelled: its messages never get here
         if isinstance(msg, FeaturesDone):
@@ -218,3 +221,9 @@ class RunController:
         elif isinstance(msg, Predicted):
             index = self._indices[msg.index]
             m.set_result(index, msg.file_labels, "predicted", self._edits[index])
+        elif isinstance(msg, Scored):
+            index = self._indices[msg.index]
+            if m.shapes[index].edits == self._edits[index]:  # else it scores labels the user no longer sees
+                m.set_confidence(index, msg.file_confidence, msg.mean)
+        elif isinstance(msg, Suggested):
+            m.set_suggestion(Suggestion(self._indices[msg.index], msg.file_faces, msg.file_face))

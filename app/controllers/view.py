@@ -13,19 +13,26 @@ from scribbleseg_app.controllers.jobs import Dispatcher, Job
 from scribbleseg_app.events import Event
 
 #: What the surface shows ("Show" menu); features are the columns of ``face_features``.
-SHOW_MODES = ("Labels and scribbles", "Scribbles only", "Result only",
+SHOW_MODES = ("Labels and scribbles", "Scribbles only", "Result only", "Confidence",
               "Feature: AGD", "Feature: SDF", "Feature: Gaussian curvature", "Feature: SI-HKS (band 1)")
+#: The bare surface: what a hidden label, or a face without labels, shows.
+SURFACE = np.array([0.78, 0.78, 0.78])
+#: Tint of the region a fill click would paint, and of the suggested region ("paint here next").
+FILL_TINT, SUGGESTION_TINT = np.array([1.0, 1.0, 1.0]), np.array([1.0, 0.0, 0.85])
 FEATURE_COLUMN = {"Feature: AGD": 0, "Feature: SDF": 1, "Feature: Gaussian curvature": 2, "Feature: SI-HKS (band 1)": 3}
 
 
-def value_colors(values: np.ndarray) -> np.ndarray:
-    """A blue-to-yellow ramp (viridis anchors) of `values` (m,) between their 2nd and
-    98th percentiles, (m, 3) float64 RGB."""
+def value_colors(values: np.ndarray, span: tuple[float, float] | None = None) -> np.ndarray:
+    """A blue-to-yellow ramp (viridis anchors) of `values` (m,) over `span` (lo, hi), by default
+    between their 2nd and 98th percentiles; (m, 3) float64 RGB."""
     anchors = np.array([[0.267, 0.005, 0.329], [0.229, 0.322, 0.546], [0.128, 0.567, 0.551],
                         [0.369, 0.789, 0.383], [0.993, 0.906, 0.144]])
     v = np.asarray(values, dtype=np.float64)
     finite = np.isfinite(v)
-    lo, hi = np.percentile(v[finite], [2, 98]) if finite.any() else (0.0, 1.0)
+    if span is not None:
+        lo, hi = span
+    else:
+        lo, hi = np.percentile(v[finite], [2, 98]) if finite.any() else (0.0, 1.0)
     t = np.clip((np.where(finite, v, lo) - lo) / max(hi - lo, 1e-300), 0, 1) * (len(anchors) - 1)
     i = np.minimum(t.astype(int), len(anchors) - 2)
     f = (t - i)[:, None]
@@ -41,6 +48,11 @@ class ViewController:
         Something worth a line in the status bar (a shape shown, signatures computing).
     shown(index)
         Shape `index` is in the viewport (its mesh loaded).
+
+    Labels can be hidden or faded (:meth:`set_label_opacity`, :attr:`only_current`): a face
+    shows its label's colour blended over the bare surface by the label's opacity. The region a
+    fill would paint (:meth:`set_highlight`) and the suggested region (the model's
+    :attr:`~scribbleseg_app.model.CollectionModel.suggestion`) are tinted on top.
 
     Parameters
     ----------
@@ -62,7 +74,13 @@ class ViewController:
         self._features: dict[tuple[int, int], np.ndarray] = {}
         self._jobs: dict[int, Job] = {}  # features being computed, per shape
         self._loading: Job | None = None
+        self.opacity: dict[int, float] = {}  # label -> opacity in [0, 1]; 1 when absent
+        self.only_current = False
+        self.highlight: tuple[int, np.ndarray] | None = None  # (shape, file faces) a fill would paint
         model.collection_changed.connect(self._on_collection_changed)
+        model.confidence_changed.connect(self.refresh)
+        model.suggestion_changed.connect(lambda: self.refresh(model.current))
+        model.current_label_changed.connect(lambda label: self.only_current and self.refresh(model.current))
         model.current_changed.connect(self._on_current_changed)
         model.scribbles_changed.connect(lambda index, faces: self.refresh(index))
         model.result_changed.connect(self.refresh)
@@ -80,25 +98,70 @@ class ViewController:
         self.mode = mode
         self.refresh(self.model.current)
 
+    def set_label_opacity(self, label: int, opacity: float) -> None:
+        """Show `label`'s scribbles and results at `opacity` in [0, 1] (0 hides them)."""
+        self.opacity[int(label)] = float(np.clip(opacity, 0.0, 1.0))
+        self.refresh(self.model.current)
+
+    def label_opacity(self, label: int) -> float:
+        return self.opacity.get(int(label), 1.0)
+
+    def set_only_current(self, on: bool) -> None:
+        """Show only the label the brush paints (the others as the bare surface)."""
+        self.only_current = bool(on)
+        self.refresh(self.model.current)
+
+    def set_highlight(self, index: int, faces: np.ndarray | None) -> None:
+        """Tint file faces `faces` of shape `index` (the region a fill would paint); None clears."""
+        old, self.highlight = self.highlight, None if faces is None else (index, np.asarray(faces, dtype=np.int64))
+        if old is not None or faces is not None:
+            self.refresh(index)
+
     # ------------------------------------------------------------------ colours
 
     def colors(self, index: int) -> np.ndarray | None:
         """Face colours of shape `index` in the current mode, (m0, 3) float64; None while
-        its mesh is not loaded. A feature not computed yet shows the labels meanwhile."""
+        its mesh is not loaded. A feature not computed yet, or a confidence before any run,
+        shows the labels meanwhile."""
         m = self.model
         entry = m.shapes[index]
         if not entry.loaded:
             return None
+        if self.mode == "Confidence" and entry.confidence is not None:
+            colors = value_colors(entry.confidence, (0.0, 1.0))
+        elif self.mode in FEATURE_COLUMN and self.feature_values(index, FEATURE_COLUMN[self.mode]) is not None:
+            colors = value_colors(self.feature_values(index, FEATURE_COLUMN[self.mode]))
+        else:
+            colors = self._label_colors(index)
+        suggestion = m.suggestion
+        if suggestion is not None and suggestion.index == index:
+            colors[suggestion.faces] = 0.45 * colors[suggestion.faces] + 0.55 * SUGGESTION_TINT
+        if self.highlight is not None and self.highlight[0] == index:
+            faces = self.highlight[1]
+            colors[faces] = 0.4 * colors[faces] + 0.6 * FILL_TINT
+        return colors
+
+    def _label_colors(self, index: int) -> np.ndarray:
+        """Labels and scribbles (or one of them, by mode), each label at its opacity over the bare surface."""
+        m = self.model
+        m0 = m.shapes[index].mesh().num_file_faces
+        scribble = m.layer(index).labels
+        result = m.shown_labels(index)
+        result = result if result is not None else np.full(m0, -1)
         if self.mode == "Scribbles only":
-            return m.label_set.face_colors(m.layer(index).labels)
-        if self.mode == "Result only":
-            labels = m.shown_labels(index)
-            return m.label_set.face_colors(labels if labels is not None else np.full(entry.mesh().num_file_faces, -1))
-        if self.mode in FEATURE_COLUMN:
-            values = self.feature_values(index, FEATURE_COLUMN[self.mode])
-            if values is not None:
-                return value_colors(values)
-        return m.face_colors(index)
+            shown, colors = scribble, m.label_set.face_colors(scribble)
+        elif self.mode == "Result only":
+            shown, colors = result, m.label_set.face_colors(result)
+        else:
+            shown, colors = np.where(scribble >= 0, scribble, result), m.face_colors(index)
+        k = len(m.label_set)
+        alpha = np.array([self.label_opacity(j) for j in range(k)] + [1.0])  # the last: unlabeled
+        if self.only_current and m.current_label >= 0:  # (with the eraser, every label shows)
+            alpha[:k] = np.arange(k) == m.current_label
+        a = alpha[np.where(shown >= 0, shown, k)][:, None]
+        if (a < 1).any():
+            colors = a * colors + (1 - a) * SURFACE
+        return colors
 
     def refresh(self, index: int) -> None:
         """Re-colour shape `index` if it is the one shown."""
@@ -153,6 +216,9 @@ class ViewController:
             text += f", scribbled {names[scribble] if scribble < len(names) else scribble}"
         if self.mode in FEATURE_COLUMN and (i, FEATURE_COLUMN[self.mode]) in self._features:
             text += f", {self.mode[9:]} = {self._features[(i, FEATURE_COLUMN[self.mode])][face]:.4g}"
+        confidence = m.shapes[i].confidence
+        if confidence is not None and face < len(confidence):
+            text += f", confidence {confidence[face]:.2f}"
         return text
 
     # ------------------------------------------------------------------ the shown shape
@@ -194,6 +260,8 @@ class ViewController:
             job.cancel()
         self._jobs.clear()
         self._features.clear()
+        self.highlight = None
+        self.opacity.clear()
         if self._loading is not None:
             self._loading.cancel()
             self._loading = None

@@ -206,6 +206,8 @@ def segment_collection(
     shapes: Sequence[ShapeData],
     label_names: Sequence[str],
     params: SegmentParams = SegmentParams(),
+    *,
+    warm: TrainedModel | None = None,
 ) -> Iterator[Snapshot]:
     """Minimize the energy over a collection, alternating network training and graph cuts.
 
@@ -219,6 +221,10 @@ def segment_collection(
     label_names : sequence of str
         k names; scribble ids index them.
     params : SegmentParams
+    warm : TrainedModel, optional
+        A model from an earlier run on this collection: when it has the same labels, inputs
+        and stages, its learner continues training (``NetworkParams.warm_epochs``) instead of
+        starting over, so a run after a few corrections is faster. Otherwise ignored.
 
     Yields
     ------
@@ -233,12 +239,12 @@ def segment_collection(
     if not any(s.is_scribbled for s in shapes):
         raise ValueError("no shape has scribbles: paint at least one stroke")
     if params.method == "paper":
-        yield from _alternate(_PatchProblem(shapes, label_names, params), params)
+        yield from _alternate(_PatchProblem(shapes, label_names, params), params, warm)
     else:
-        yield from _alternate(_FaceProblem(shapes, label_names, params), params)
+        yield from _alternate(_FaceProblem(shapes, label_names, params), params, warm)
 
 
-def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
+def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None) -> Iterator[Snapshot]:
     """The alternation shared by both variants; `problem` says what a cut and an energy are."""
     t0 = t = time.perf_counter()
     n = len(problem.shapes)
@@ -253,6 +259,8 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
     shapes = problem.shapes
     context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
     net = _Networks(d, len(problem.label_names), params.network, share, [s.is_scribbled for s in shapes], context_of)
+    if warm is not None and _continues(warm, net.main, problem.label_names, params):
+        net.main = copy.deepcopy(warm.learner.with_threads(params.network.threads))
     model, logp, best, it = None, None, np.inf, 0
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
@@ -279,6 +287,15 @@ def _alternate(problem, params: SegmentParams) -> Iterator[Snapshot]:
             break
     yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t0,
                    model or problem.model(net.main))
+
+
+def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentParams) -> bool:
+    """Whether `warm`'s learner can go on training in place of `fresh` (same labels, method,
+    input width and stages)."""
+    a, b = warm.learner, fresh
+    return (tuple(warm.label_names) == tuple(label_names) and warm.params.method == params.method
+            and a.stage1.num_inputs == b.stage1.num_inputs and (a.stage2 is None) == (b.stage2 is None)
+            and (a.stage2 is None or a.stage2.num_inputs == b.stage2.num_inputs))
 
 
 class _Networks:

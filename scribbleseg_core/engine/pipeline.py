@@ -79,7 +79,8 @@ def collection_run(
     params: SegmentParams = SegmentParams(),
     *,
     num_patches: int = 50,
-) -> Iterator[FeaturesDone | StepDone | Predicted]:
+    warm: TrainedModel | None = None,
+) -> Iterator[FeaturesDone | StepDone | Predicted | Scored | Suggested]:
     """Segment the scribbled shapes, then predict the others.
 
     Parameters
@@ -91,6 +92,9 @@ def collection_run(
     params : SegmentParams
     num_patches : int
         Primitive patches per shape.
+    warm : TrainedModel, optional
+        The model of an earlier run to continue training
+        (:func:`~scribbleseg_core.engine.optimize.segment_collection`).
 
     Yields
     ------
@@ -114,7 +118,7 @@ def collection_run(
             shapes[-1].label_context  # noqa: B018 - computed (or read) here, in the features phase
         yield FeaturesDone(i, i + 1, len(meshes))
     last = None
-    for snap in segment_collection(shapes, label_names, params):
+    for snap in segment_collection(shapes, label_names, params, warm=warm):
         last = snap
         labeled = tuple(i for i, lab in enumerate(snap.labels) if (lab >= 0).any())
         yield StepDone(snap, labeled, tuple(meshes[i].labels_to_file(snap.labels[i]) for i in labeled))

@@ -67,6 +67,7 @@ def _drag(viewport, points):
 def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     import json
 
+    from PySide6.QtWidgets import QTableWidget
     from scribbleseg_app.main_window import MainWindow
 
     w = MainWindow(viewport=viewport, autosave_dir=tmp_path / "autosave")
@@ -138,6 +139,29 @@ def test_paint_undo_redo_through_the_mouse_path(qtbot, viewport, tmp_path):
     before = layer.labels.copy()
     _drag(viewport, [(5, 5), (60, 40)])
     np.testing.assert_array_equal(layer.labels, before)
+    # hiding a label shows its faces as the bare surface; showing it again brings the colour back
+    from scribbleseg_app.controllers.view import SURFACE
+
+    w.labels.toggle_visible(1)
+    assert w.view.label_opacity(1) == 0 and np.allclose(w.view.colors(1)[painted], SURFACE)
+    w.labels.toggle_visible(1)
+    assert not np.allclose(w.view.colors(1)[painted], SURFACE)
+    # the fill: F pressed in the viewport window, then a click paints the region around it, one undo step
+    key(psim.ImGuiKey_F)
+    assert w.toolbox.tool == "fill" and w.tools.fill_radio.isChecked()
+    qtbot.waitUntil(lambda: w.toolbox.regions(1) is not None, timeout=30_000)
+    key(psim.ImGuiKey_1)  # body
+    before = layer.labels.copy()
+    _drag(viewport, [(cx, cy)])  # a click
+    filled = np.flatnonzero(layer.labels != before)
+    assert len(filled) > 20 and (layer.labels[filled] == 0).all()
+    qtbot.keyClick(w, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    np.testing.assert_array_equal(layer.labels, before)
+    # Help → Keys lists every key
+    from scribbleseg_app.keys import sheet
+
+    w.command("keys")
+    assert w.keys_dialog.isVisible() and w.keys_dialog.findChild(QTableWidget).rowCount() == len(sheet())
 
 
 def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_path, monkeypatch):
@@ -167,10 +191,22 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
 
     gt = read_seg(w.model.shapes[0].path.parent / "labels" / "quadruped_01.seg")
     assert (w.model.shapes[0].labels == gt).mean() > 0.9
+    # every shape has the run's confidence, the list shows it and sorts by it, and a suggestion is made
+    means = [e.mean_confidence for e in w.model.shapes]
+    assert all(0 <= c <= 1 for c in means) and all(len(e.confidence) == len(e.labels) for e in w.model.shapes)
+    assert "confidence" in w.shapes.list.item(0).text()
+    w.shapes.sort_box.setChecked(True)
+    assert [means[i] for i in w.shapes.order] == sorted(means)
+    hint = w.model.suggestion
+    assert hint is not None and hint.face in hint.faces and w.run_panel.suggest_button.isEnabled()
+    w.command("suggestion")
+    assert w.model.current == hint.index
     written = w.files.export(tmp_path / "export", wait=True)
-    assert len(written) == 10 * 6  # ply, seg, obj, mtl, glb, json per shape
+    assert len(written) == 10 * 7  # ply, seg, obj, mtl, glb, json, vtp per shape
     for e in w.model.shapes:
         np.testing.assert_array_equal(read_ply_labels(tmp_path / "export" / f"{e.name}.ply"), e.labels)
+        ply = trimesh.load(tmp_path / "export" / f"{e.name}.ply", process=False).metadata["_ply_raw"]["face"]["data"]
+        np.testing.assert_allclose(np.asarray(ply["confidence"]).ravel(), e.confidence, atol=1e-6)
     assert len(trimesh.load(tmp_path / "export" / "quadruped_05.ply", process=False).faces) == len(w.model.shapes[4].labels)
     # save the session, reopen it in a fresh window: the same scribbles, results and model
     monkeypatch.setattr("PySide6.QtWidgets.QFileDialog.getExistingDirectory", lambda *a, **k: str(tmp_path / "session"))

@@ -18,7 +18,7 @@ from scribbleseg_app.model import CollectionModel
 
 from scribbleseg_core.engine.energy import EnergyTerms
 from scribbleseg_core.engine.optimize import Snapshot
-from scribbleseg_core.engine.pipeline import FeaturesDone, StepDone
+from scribbleseg_core.engine.pipeline import FeaturesDone, Scored, StepDone, Suggested
 from tests.conftest import icosphere, write_off
 
 
@@ -59,8 +59,10 @@ class FakeRun:
 
     def __init__(self, label=1):
         self.gate, self.label, self.closed = threading.Event(), label, threading.Event()
+        self.warm = []  # the model each run was asked to continue
 
-    def __call__(self, meshes, scribbles, names, params):
+    def __call__(self, meshes, scribbles, names, params, warm=None):
+        self.warm.append(warm)
         n = len(meshes)
         try:
             yield FeaturesDone(0, 1, n)
@@ -69,6 +71,9 @@ class FakeRun:
             e = EnergyTerms(3.0, 2.0, 1.0)
             yield StepDone(Snapshot(1, "graphcut", e, labels, (True,) * n, 0.1, "model"), tuple(range(n)), labels)
             yield StepDone(Snapshot(1, "done", e, labels, (False,) * n, 0.2, "model"), tuple(range(n)), labels)
+            for i in range(n):
+                yield Scored(i, np.linspace(0, 1, meshes[i].num_file_faces), 0.5)
+            yield Suggested(n - 1, np.array([3, 4, 5]), 4, 0.1)
         finally:
             self.closed.set()
 
@@ -95,6 +100,14 @@ def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
     assert all((e.labels == 1).all() for e in model.shapes) and model.trained_model == "model"
     assert [(s.phase, s.energy.total) for s in runs.history.steps] == [("graphcut", 6.0)]
     assert runs.changed == {0, 1, 2} and runs.history.marks == [(0, "round 1")]
+    # the confidence of every shape and where to paint next
+    assert all(e.mean_confidence == 0.5 and e.confidence[-1] == 1.0 for e in model.shapes)
+    assert model.suggestion.index == 2 and model.suggestion.face == 4
+    # the next run continues the network of this one and drops the old suggestion at its start
+    ended.clear()
+    runs.segment()
+    assert model.suggestion is None and fake_run.warm == [None, "model"]
+    until(lambda: ended, dispatcher)
 
 
 def test_nothing_to_segment_says_why(setup):

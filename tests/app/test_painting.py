@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scribbleseg_app.painting import ERASE, Brush, ScribbleLayer
 
+from scribbleseg_core.formats.mesh import repair
+
 
 def test_one_stroke_is_one_undo_step():
     layer = ScribbleLayer(np.full(10, -1))
@@ -41,12 +43,27 @@ def test_a_stroke_that_changes_nothing_is_no_undo_step():
     assert not layer.end() and not layer.can_undo
 
 
-def test_fast_drags_leave_no_gaps():
-    x = np.linspace(0, 10, 1001)
-    centroids = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
-    brush = Brush(centroids, scale=10.0)
-    faces = brush.faces_along(np.array([9.0, 0, 0]), np.array([1.0, 0, 0]), radius=0.01)  # r = 0.1
-    covered = centroids[faces, 0]
-    assert covered.min() <= 0.91 and covered.max() >= 9.09
-    assert np.all(np.diff(np.sort(covered)) < 0.011)  # contiguous
-    assert len(brush.faces_along(np.array([5.0, 0, 0]), None, 0.0105)) == 21  # 4.90 .. 5.10
+def _slab(n=60, thickness=0.01):
+    """A thin closed slab, 1 × 1 × `thickness`: two sheets close together, joined at the rim."""
+    import trimesh
+
+    box = trimesh.creation.box(extents=(1.0, 1.0, thickness))
+    for _ in range(5):
+        box = box.subdivide()
+    return repair(np.asarray(box.vertices), np.asarray(box.faces))
+
+
+def test_fast_drags_leave_no_gaps_and_the_brush_stays_on_its_sheet():
+    mesh = _slab()
+    brush = Brush(mesh)
+    C = mesh.V_file[mesh.F_file].mean(axis=1)
+    top = C[:, 2] > 0
+    a, b = np.array([-0.4, 0.0, 0.005]), np.array([0.4, 0.0, 0.005])
+    faces = brush.faces_along(b, a, radius=0.02)  # r = 0.02 · diagonal ≈ 0.028
+    assert top[faces].all()  # a ball of that radius would take the sheet 0.01 below too
+    covered = np.sort(C[faces, 0])
+    assert covered.min() <= -0.38 and covered.max() >= 0.38
+    assert np.all(np.diff(covered) < 0.05)  # contiguous along the drag
+    assert np.abs(C[faces, 1]).max() < 0.03 + 0.02
+    one = brush.faces_along(np.array([0.0, 0.0, 0.005]), None, 0.02)
+    assert 0 < len(one) < len(faces) and top[one].all()
