@@ -161,8 +161,8 @@ class CollectionModel:
                 shapes = [ShapeEntry(p, coll.face_labels(p)) for p in coll.meshes]
                 names = coll.label_names or self._label_names_beside(path)
             else:
-                load_mesh(path)  # fail now, with the file named, rather than on display
-                shapes, names = [ShapeEntry(path.resolve())], ()
+                mesh = load_mesh(path)  # fail now, with the file named, rather than on display
+                shapes, names = [ShapeEntry(path.resolve(), _mesh=mesh)], ()
         except ScribblesegError as e:
             self.error.emit(str(e))
             return
@@ -337,7 +337,10 @@ class CollectionModel:
         """Autosaved scribbles that differ from what is open:
         {shape index: ((m0,) labels, the label names they index)}.
 
-        Unreadable autosave files are reported through `error` and skipped.
+        No mesh is read here (it runs as a collection opens): the scribbles are compared with
+        those opened, and an autosave of a shape opened without scribbles is checked against its
+        mesh's face count in :meth:`restore_autosave`. Unreadable autosave files are reported
+        through `error` and skipped.
         """
         from scribbleseg_core.formats.scribbles import read_scribbles
 
@@ -350,20 +353,28 @@ class CollectionModel:
             i = by_name.get(f.stem)
             if i is None or self.shapes[i].state == "error":
                 continue
+            entry = self.shapes[i]
+            now = self._layers[i].labels if i in self._layers else entry.file_scribble
             try:
-                scr = read_scribbles(f, num_faces=self.shapes[i].mesh().num_file_faces)
+                scr = read_scribbles(f, num_faces=None if now is None else len(now))
             except ScribblesegError as e:
                 self.error.emit(f"autosave not restorable: {e}")
                 continue
             labels = scr.face_labels()
-            if not np.array_equal(labels, self.layer(i).labels):
+            if (labels >= 0).any() if now is None else not np.array_equal(labels, now):
                 out[i] = (labels, scr.label_names)
         return out
 
     def restore_autosave(self) -> list[int]:
         """Take the autosaved scribbles that differ from the open ones; returns the shapes."""
         changes = self.autosaved_changes()
-        for i, (labels, names) in changes.items():
+        for i, (labels, names) in list(changes.items()):
+            m0 = self.shapes[i].mesh().num_file_faces
+            if len(labels) != m0:
+                self.error.emit(f"autosave not restorable: {self.autosave_folder() / (self.shapes[i].name + '.json')}: "
+                                f"it has {len(labels)} faces, the mesh {m0}")
+                del changes[i]
+                continue
             for name in names[len(self.label_set):]:  # labels added before the crash
                 self.add_label(name if name not in self.label_set.names else f"{name} (restored)")
             layer = self.layer(i)

@@ -104,3 +104,26 @@ def test_a_stroke_painted_by_face_ids_is_one_undo_step(tmp_path):
     assert committed == [1] and m.shapes[1].state == "scribbled" and m.shapes[1].edits == 1
     m.undo()
     assert (m.layer(1).labels == -1).all()
+
+
+def test_autosaves_are_found_without_reading_meshes_and_a_wrong_one_is_named(tmp_path):
+    folder = _collection(tmp_path)
+    m, errors = _model(tmp_path, folder)
+    _paint(m, 1, np.arange(10), 1)
+    _paint(m, 2, np.arange(5), 0)
+    saved = m.autosave_folder() / "s2.json"
+    doc = json.loads(saved.read_text())
+    doc["num_faces"] = 7  # an autosave that no longer fits its mesh
+    doc["strokes"] = [{"label": 0, "faces": [1, 2]}]
+    saved.write_text(json.dumps(doc))
+    m2 = CollectionModel(tmp_path / "autosave")
+    errors2 = []
+    m2.error.connect(errors2.append)
+    offered = []
+    m2.restore_available.connect(offered.append)
+    m2.open(folder)
+    assert offered == [2] and not any(e.loaded for e in m2.shapes)  # no mesh read to find them
+    assert m2.restore_autosave() == [1]
+    assert (m2.layer(1).labels[:10] == 1).all()
+    assert len(errors2) == 1 and "s2.json" in errors2[0] and "7 faces" in errors2[0]
+    assert not errors
