@@ -29,8 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from scribbleseg_core.engine.guidance import UNCONFIDENT, label_confidence, suggest
+from scribbleseg_core.engine.guidance import UNCONFIDENT, suggest
 from scribbleseg_core.engine.optimize import SegmentParams, segment_collection
+from scribbleseg_core.engine.pipeline import collection_confidence
 from scribbleseg_core.engine.shape import prepare_shape
 from scribbleseg_core.evaluation.benchmark import load_category
 from scribbleseg_core.evaluation.metrics import rand_index_error
@@ -56,8 +57,8 @@ def run_category(root: Path, cat: str, steps: int, seed: int, threads: int) -> d
             pass
         err = float(np.mean([rand_index_error(shapes[i].mesh.labels_to_file(snap.labels[i]), items[i].truth)
                              for i in scored]))
-        conf = [label_confidence(snap.model.log_proba(s), snap.labels[i], s.scribble)
-                if i in pool and i not in painted else None for i, s in enumerate(shapes)]
+        conf = [c if i in pool and i not in painted else None
+                for i, c in enumerate(collection_confidence(snap, shapes, snap.labels))]
         return err, conf, shapes
 
     first = [pool[0]]

@@ -187,6 +187,12 @@ class Snapshot:
         Time this step took.
     model : TrainedModel or None
         The network of this step (from the first training on); later steps train a copy.
+    held_out : tuple of ((m_s, k) float64 ndarray or None) or None
+        The last step only: per shape, log label probabilities from a first-stage network
+        that did not see the shape's labels (trained on the other half of the collection),
+        None where there is none (a collection of one shape, method ``"paper"``). What the
+        confidence of a collection's shape is measured with
+        (:func:`~scribbleseg_core.engine.guidance.label_confidence`).
     """
 
     iteration: int
@@ -196,6 +202,7 @@ class Snapshot:
     changed: tuple[bool, ...]
     seconds: float
     model: TrainedModel | None = None
+    held_out: tuple[np.ndarray | None, ...] | None = None
 
     @property
     def done(self) -> bool:
@@ -286,7 +293,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         if converged:
             break
     yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t0,
-                   model or problem.model(net.main))
+                   model or problem.model(net.main), tuple(net.held_out_log_proba(inputs)))
 
 
 def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentParams) -> bool:
@@ -372,6 +379,15 @@ class _Networks:
             return None if fallback is None else fallback.log_proba(x)
         out = net.log_proba(x)
         self._held[i] = (id(x), out)
+        return out
+
+    def held_out_log_proba(self, inputs) -> list[np.ndarray | None]:
+        """Per shape, the log-probabilities of the trained first-stage network that did not see
+        its labels; None where there is none."""
+        out = []
+        for i, x in enumerate(inputs):
+            net = self._held_out(i) if x is not None else None
+            out.append(None if net is None else net.log_proba(x))
         return out
 
     def log_proba(self, inputs) -> list[np.ndarray | None]:

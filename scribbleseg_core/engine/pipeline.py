@@ -106,7 +106,9 @@ def collection_run(
         For each shape without scribbles, once the model is trained (method ``"paper"``;
         with ``"face"`` every shape takes part in the optimization).
     Scored
-        For every shape, at the end.
+        For every shape, at the end: the margin of its labels under a network that did not
+        see them (:attr:`~scribbleseg_core.engine.optimize.Snapshot.held_out`), else under
+        the model.
     Suggested
         Last, unless every face is confident.
     """
@@ -127,15 +129,31 @@ def collection_run(
         if not (lab >= 0).any():  # not part of the optimization (method "paper")
             final[i] = predict_shape(last.model, s)
             yield Predicted(i, meshes[i].labels_to_file(final[i]))
-    confidence = []
-    for i, (s, lab) in enumerate(zip(shapes, final)):
-        confidence.append(label_confidence(last.model.log_proba(s), lab, s.scribble))
-        yield _scored(i, meshes[i], s, confidence[-1])
+    confidence = collection_confidence(last, shapes, final)
+    for i, s in enumerate(shapes):
+        yield _scored(i, meshes[i], s, confidence[i])
     hint = suggest([s.graph for s in shapes], [s.area for s in shapes], confidence)
     if hint is not None:
         mesh = meshes[hint.shape]
         yield Suggested(hint.shape, np.flatnonzero(np.isin(mesh.file_to_proc, hint.faces)),
                         int(mesh.proc_to_file[hint.face]), hint.score)
+
+
+def collection_confidence(last: Snapshot, shapes: Sequence, labels: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per shape of a segmented collection, the confidence (m_s,) of its `labels`: their margin
+    under a network that did not see them (``last.held_out``), else under the model (which
+    saw them); painted faces 1 (:func:`~scribbleseg_core.engine.guidance.label_confidence`).
+
+    Parameters
+    ----------
+    last : Snapshot
+        The optimization's last snapshot (phase ``"done"``).
+    shapes : sequence of ShapeData
+    labels : sequence of (m_s,) int ndarray
+    """
+    held_out = last.held_out or (None,) * len(shapes)
+    return [label_confidence(held if held is not None else last.model.log_proba(s), lab, s.scribble)
+            for s, lab, held in zip(shapes, labels, held_out)]
 
 
 def _scored(index: int, mesh: Mesh, shape, confidence: np.ndarray) -> Scored:
