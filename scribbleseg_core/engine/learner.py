@@ -17,8 +17,7 @@ application to high-level vision tasks and 3D brain image segmentation", IEEE TP
 
 from __future__ import annotations
 
-import copy
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -68,11 +67,4 @@ class Learner:
     def with_threads(self, threads: int | None) -> Learner:
         """This learner predicting on `threads` torch threads (None: the cores this process
         may use); it shares the weights, and this one is left as it is."""
-        def clf(c: FaceClassifier | None) -> FaceClassifier | None:
-            if c is None:
-                return None
-            out = copy.copy(c)
-            out.params = replace(c.params, threads=threads)
-            return out
-
-        return Learner(clf(self.stage1), clf(self.stage2))
+        return Learner(self.stage1.with_threads(threads), None if self.stage2 is None else self.stage2.with_threads(threads))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import copy
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache
 
 import numpy as np
@@ -254,6 +254,13 @@ class FaceClassifier:
         self.net.eval()
         self.trained = True
         return last
+
+    def with_threads(self, threads: int | None) -> FaceClassifier:
+        """This classifier on `threads` torch threads (None: the cores this process may use);
+        it shares the weights, and this one is left as it is."""
+        out = copy.copy(self)
+        out.params = replace(self.params, threads=threads)
+        return out
 
     def log_proba(self, X: np.ndarray) -> np.ndarray:
         """Log class probabilities per face, (m, c) float64 (log-softmax of the logits)."""

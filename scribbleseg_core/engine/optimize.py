@@ -35,7 +35,7 @@ from __future__ import annotations
 import copy
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -150,6 +150,9 @@ class TrainedModel:
         ``"paper"`` only: the patch descriptors' ranges and codebook.
     delta : float or None
         ``"paper"`` only: δ of the feature term.
+    halves : tuple of FaceClassifier
+        The first-stage networks trained on each half of the collection (cross-fitting), for
+        a later run to continue (``segment_collection(warm=)``); not saved with the model.
     """
 
     learner: Learner
@@ -157,6 +160,7 @@ class TrainedModel:
     params: SegmentParams
     encoder: PatchEncoder | None = None
     delta: float | None = None
+    halves: tuple = ()
 
     def log_proba(self, shape: ShapeData) -> np.ndarray:
         """The learner's log label probabilities for the faces of `shape`, (m, k) float64."""
@@ -267,11 +271,11 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
     net = _Networks(d, len(problem.label_names), params.network, share, [s.is_scribbled for s in shapes], context_of)
     if warm is not None and _continues(warm, net.main, problem.label_names, params):
-        net.main = copy.deepcopy(warm.learner.with_threads(params.network.threads))
+        net.continue_from(warm, params.network.threads)
     model, logp, best, it = None, None, np.inf, 0
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
-        previous = net if net.trained else None
+        previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
         net.fit(inputs, labels)
         new_logp = net.log_proba(inputs)
@@ -280,7 +284,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
             net = previous  # training did not lower E: keep the networks that made these labels
             break
         logp, energy = new_logp, e_train
-        model = problem.model(net.main)
+        model = net.model(problem)
         yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
                        model)
         t = time.perf_counter()
@@ -293,7 +297,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         if converged:
             break
     yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t0,
-                   model or problem.model(net.main), tuple(net.held_out_log_proba(inputs)))
+                   model or net.model(problem), tuple(net.held_out_log_proba(inputs)))
 
 
 def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentParams) -> bool:
@@ -345,6 +349,17 @@ class _Networks:
     @property
     def trained(self) -> bool:
         return self.main.stage1.trained
+
+    def model(self, problem) -> TrainedModel:
+        """The model of these networks: the learner, with the halves for a later run to continue."""
+        return replace(problem.model(self.main), halves=tuple(self.halves))
+
+    def continue_from(self, warm: TrainedModel, threads: int | None) -> None:
+        """Start from `warm`'s networks (copies on `threads` torch threads): trainings continue
+        with ``warm_epochs``."""
+        self.main = copy.deepcopy(warm.learner.with_threads(threads))
+        if len(warm.halves) == len(self.halves):
+            self.halves = [copy.deepcopy(h.with_threads(threads)) for h in warm.halves]
 
     def fit(self, inputs, labels) -> None:
         """Train on every shape with labels and inputs; warm when trained before."""

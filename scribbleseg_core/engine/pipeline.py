@@ -8,7 +8,7 @@ message on the main thread.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -123,7 +123,8 @@ def collection_run(
     for snap in segment_collection(shapes, label_names, params, warm=warm):
         last = snap
         labeled = tuple(i for i, lab in enumerate(snap.labels) if (lab >= 0).any())
-        yield StepDone(snap, labeled, tuple(meshes[i].labels_to_file(snap.labels[i]) for i in labeled))
+        # the held-out probabilities stay here (they become Scored messages): messages stay small
+        yield StepDone(replace(snap, held_out=None), labeled, tuple(meshes[i].labels_to_file(snap.labels[i]) for i in labeled))
     final = list(last.labels)
     for i, (s, lab) in enumerate(zip(shapes, last.labels)):
         if not (lab >= 0).any():  # not part of the optimization (method "paper")

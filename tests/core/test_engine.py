@@ -293,3 +293,23 @@ def test_patches_never_mix_scribble_labels_and_are_connected(collection):
         G.eliminate_zeros()
         n, _ = connected_components(G, directed=False)
         assert n == s.num_patches
+
+
+def test_a_run_continues_the_networks_of_an_earlier_one(collection, monkeypatch):
+    from scribbleseg_core.engine.network import FaceClassifier
+
+    shapes, gts, snaps = collection
+    last = snaps[-1]
+    assert len(last.model.halves) == 2 and last.held_out is not None and all(h is not None for h in last.held_out)
+    fits = []
+    fit = FaceClassifier.fit
+    monkeypatch.setattr(FaceClassifier, "fit", lambda self, X, y, warm=False: fits.append(warm and self.trained)
+                        or fit(self, X, y, warm=warm))
+    *_, warm = segment_collection(shapes, LABELS, PARAMS, warm=last.model)
+    assert fits and all(fits)  # every training continued (warm epochs), the first round's too
+    assert np.mean([(lab == gt).mean() for lab, gt in zip(warm.labels, gts)]) >= 0.9
+    # other labels: the earlier model does not fit, and the run starts over
+    fits.clear()
+    *_, fresh = segment_collection(shapes, (*LABELS[:2], "other"), PARAMS, warm=dataclasses.replace(
+        last.model, label_names=("x", "y", "z")))
+    assert fits[:4] == [False] * 4 and fresh.model is not None
