@@ -52,7 +52,8 @@ class ViewController:
     Labels can be hidden or faded (:meth:`set_label_opacity`, :attr:`only_current`): a face
     shows its label's colour blended over the bare surface by the label's opacity. The region a
     fill would paint (:meth:`set_highlight`) and the suggested region (the model's
-    :attr:`~scribbleseg_app.model.CollectionModel.suggestion`) are tinted on top.
+    :attr:`~scribbleseg_app.model.CollectionModel.suggestion`; not over the confidence, which
+    shows it already) are tinted on top.
 
     Parameters
     ----------
@@ -134,7 +135,7 @@ class ViewController:
         else:
             colors = self._label_colors(index)
         suggestion = m.suggestion
-        if suggestion is not None and suggestion.index == index:
+        if suggestion is not None and suggestion.index == index and self.mode != "Confidence":
             colors[suggestion.faces] = 0.45 * colors[suggestion.faces] + 0.55 * SUGGESTION_TINT
         if self.highlight is not None and self.highlight[0] == index:
             faces = self.highlight[1]

@@ -9,20 +9,25 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, dijk
 from scribbleseg_core.engine.patches import over_segment
 from scribbleseg_core.geometry.dual_graph import DualGraph
 
-#: Patches a :class:`RegionFill` splits a shape into; a fill takes whole patches.
+#: Patches a :class:`RegionFill` splits a shape into; their borders are where creases are averaged.
 FILL_PATCHES = 100
+#: A single concave edge this many times sharper than a fill's threshold stops it too.
+EDGE_FACTOR = 5.0
 
 
 class RegionFill:
     """The fill tool's regions on one shape, built once and queried per click.
 
-    A crease fill takes whole primitive patches (:func:`~scribbleseg_core.engine.patches.over_segment`,
-    whose borders settle on concave creases) and crosses a border between two patches when
-    the border's mean concave dihedral angle (weighted by edge length; convex ridges count 0)
-    is at most the threshold. Averaging over a whole border tells a valley spread over several
-    faces from a smooth surface, where one edge's angle cannot. Meshes with sharp creases
-    (furniture, machine parts) fill part by part at a few degrees; smooth organic shapes
-    (bodies, animals) have few creases to stop a fill, where a fill bounded by labels serves.
+    A crease fill spreads from face to face across shared edges, and stops at two kinds of
+    crease: the border between two primitive patches
+    (:func:`~scribbleseg_core.engine.patches.over_segment`, whose borders settle on concave
+    creases) whose mean concave dihedral angle (weighted by edge length; convex ridges count 0)
+    exceeds the threshold, and a single concave edge sharper than :data:`EDGE_FACTOR` times it.
+    Averaging over a whole border tells a valley spread over several faces from a smooth
+    surface, where one edge's angle cannot; the single-edge test catches a sharp crease that a
+    patch happens to straddle. Meshes with creases (furniture, machine parts, a head joined to a
+    body) fill part by part at a few degrees; smooth organic shapes (bodies, animals) have few
+    creases to stop a fill, where a fill bounded by labels serves.
 
     Parameters
     ----------
@@ -37,23 +42,24 @@ class RegionFill:
         p = int(self.patch.max()) + 1
         a, b = self.patch[graph.pairs[:, 0]], self.patch[graph.pairs[:, 1]]
         border = a != b
-        angle = np.where(graph.concave, crease_angle_deg(graph), 0.0)[border]
-        length = graph.length[border] + 1e-300
-        key = np.minimum(a, b)[border] * p + np.maximum(a, b)[border]
-        pairs, inv = np.unique(key, return_inverse=True)
-        self._pairs = np.stack([pairs // p, pairs % p], axis=1)
-        self.border_angle = np.bincount(inv, angle * length) / np.bincount(inv, length)
-        self._num_patches = p
+        self.angle = np.where(graph.concave, crease_angle_deg(graph), 0.0)
+        length = graph.length + 1e-300
+        key = np.minimum(a, b) * p + np.maximum(a, b)
+        _, inv = np.unique(key[border], return_inverse=True)
+        mean = np.bincount(inv, (self.angle * length)[border]) / np.bincount(inv, length[border])
+        self.border_angle = np.zeros(len(graph.pairs))  # per face pair: its patch border's mean angle, 0 inside a patch
+        self.border_angle[border] = mean[inv]
 
     def by_crease(self, seed: int, crease_deg: float) -> np.ndarray:
-        """Faces reached from face `seed` crossing only patch borders whose mean concave
-        angle is at most `crease_deg` degrees; sorted (k,) int64."""
+        """Faces reached from face `seed` across no patch border whose mean concave angle
+        exceeds `crease_deg` degrees and no edge sharper than ``EDGE_FACTOR · crease_deg``;
+        sorted (k,) int64."""
         _check_seed(self.graph, seed)
-        keep = self.border_angle <= crease_deg
-        i, j = self._pairs[keep, 0], self._pairs[keep, 1]
-        reached = breadth_first_order(_symmetric(i, j, self._num_patches), int(self.patch[seed]), directed=False,
-                                      return_predecessors=False)
-        return np.flatnonzero(np.isin(self.patch, reached)).astype(np.int64)
+        keep = (self.border_angle <= crease_deg) & (self.angle <= EDGE_FACTOR * crease_deg)
+        g = self.graph
+        reached = breadth_first_order(_symmetric(g.pairs[keep, 0], g.pairs[keep, 1], g.num_faces), int(seed),
+                                      directed=False, return_predecessors=False)
+        return np.sort(reached).astype(np.int64)
 
     def by_labels(self, seed: int, labels: np.ndarray) -> np.ndarray:
         """Faces connected to face `seed` across shared edges whose label (`labels`, (m,)

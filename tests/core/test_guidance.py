@@ -35,7 +35,8 @@ def test_crease_fill_stops_at_the_valley_around_a_limb_and_the_threshold_opens_i
     fill = RegionFill(graph)
     limbs = components(graph, gt == 1)
     tip = int(np.flatnonzero(limbs == 0)[0])
-    tight = fill.by_crease(tip, 3.0)
+    assert len(fill.by_crease(tip, 3.0)) < 10  # this coarse mesh has edges sharper than 15° inside a limb
+    tight = fill.by_crease(tip, 6.0)
     limb = np.flatnonzero(limbs == 0)
     assert np.isin(tight, limb).mean() > 0.8 and np.isin(limb, tight).mean() > 0.9  # that limb, about
     assert len(tight) < 0.2 * graph.num_faces
