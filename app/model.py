@@ -611,6 +611,8 @@ class CollectionModel:
             self._after_edit(self.current)
 
     def _after_edit(self, index: int) -> None:
+        if self.suggestion is not None and self.suggestion.index == index:
+            self.set_suggestion(None)  # acted on: the next run makes a new one
         self.shapes[index].edits += 1
         self._set_unsaved(True)
         self._refresh_state(index)

@@ -200,6 +200,7 @@ class FaceEnergy:
         network = float("nan")
         if log_proba is not None and self.params.network > 0:
             net = self.params.network * -np.maximum(np.asarray(log_proba, dtype=np.float64)[idx, labels], -30.0)
+            net[self.strokes] = 0.0  # a painted face's cost is its constraint alone (see unary)
             network = float(net.sum())
             scribble = float(U[idx, labels].sum()) - network
         else:

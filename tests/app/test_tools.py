@@ -158,6 +158,10 @@ def test_the_view_fades_hides_tints_and_shows_the_confidence(creatures):
     np.testing.assert_allclose(viewport.colors[5:7], 0.45 * base[5:7] + 0.55 * SUGGESTION_TINT)
     np.testing.assert_allclose(viewport.colors[7:], base[7:])
     assert "confidence 0.00" in view.hover_text(0)
+    model.paint_faces(1, [0], 0)
+    assert model.suggestion is not None  # an edit elsewhere leaves it
+    model.paint_faces(0, [5], 0)
+    assert model.suggestion is None  # acted on
 
 
 def test_every_key_is_listed_once():

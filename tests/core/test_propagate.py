@@ -212,3 +212,17 @@ def test_a_shape_without_scribbles_is_labeled_by_the_network_and_smoothness(plan
     assert scribble_term == 0.0 and network_term > 0
     with pytest.raises(ValueError, match="needs the network"):
         energy.cut()
+
+
+def test_no_term_is_negative_on_a_fully_painted_shape(planted):
+    from scribbleseg_core.engine.propagate import FaceEnergy
+
+    graph, gt, _ = planted
+    k = len(LABELS)
+    logp = _noisy_log_proba(gt, k, seed=2)
+    energy = FaceEnergy(graph, gt, k, PropagateParams())  # every face painted (an accepted shape)
+    labels = energy.cut(logp)
+    np.testing.assert_array_equal(labels, gt)
+    scribble_term, network_term, smooth = energy.terms(labels, logp)
+    assert scribble_term >= 0 and network_term == 0.0 and smooth > 0
+    np.testing.assert_allclose(scribble_term + network_term + smooth, sum(energy.terms(gt, logp)))
