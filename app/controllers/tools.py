@@ -46,7 +46,8 @@ class ToolsController:
         self.highlight_changed, self.status = Event(), Event()
         self._fills: dict[int, object] = {}  # shape -> RegionFill
         self._building: dict[int, Job] = {}
-        self._stroke_tool: str | None = None
+        self._stroke_tool: str | None = None  # the tool of the stroke under way
+        self._filled = False  # the fill of this click is done
         self._hover = (-1, -1)  # (shape, file face) under the mouse
         model.collection_changed.connect(self._on_collection_changed)
         model.current_changed.connect(lambda index: self.clear_highlight())
@@ -137,7 +138,7 @@ class ToolsController:
     # ------------------------------------------------------------------ strokes and hover
 
     def begin(self) -> None:
-        self._stroke_tool = self.tool
+        self._stroke_tool, self._filled = self.tool, False
         if self.tool == "brush":
             self.model.begin_stroke()
 
@@ -145,8 +146,8 @@ class ToolsController:
         """A stroke sample at 3D `point` on file face `face` of the current shape."""
         if self._stroke_tool == "brush":
             self.model.paint_at(point)
-        elif self._stroke_tool == "fill":
-            self._stroke_tool = "fill done"  # one fill per click, however long the drag
+        elif self._stroke_tool == "fill" and not self._filled:
+            self._filled = True  # one fill per click, however long the drag
             self.fill(face)
 
     def end(self) -> None:

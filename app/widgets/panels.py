@@ -23,6 +23,15 @@ from scribbleseg_app.controllers.view import SHOW_MODES
 from scribbleseg_app.widgets.energy_plot import EnergyPlot
 
 
+def hbox(*items) -> QHBoxLayout:
+    """A horizontal row of widgets; an item ``(widget, stretch)`` stretches."""
+    out = QHBoxLayout()
+    for item in items:
+        widget, stretch = item if isinstance(item, tuple) else (item, 0)
+        out.addWidget(widget, stretch)
+    return out
+
+
 def swatch(rgb) -> QIcon:
     pm = QPixmap(14, 14)
     pm.fill(QColor.fromRgbF(*[float(c) for c in rgb]))
@@ -42,10 +51,7 @@ class ShapesPanel(QWidget):
         self.order: list[int] = []  # shape index of each row
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        row = QHBoxLayout()
-        row.addWidget(QLabel("Shapes (● changed in the last round)"), 1)
-        row.addWidget(self.sort_box)
-        layout.addLayout(row)
+        layout.addLayout(hbox((QLabel("Shapes (● changed in the last round)"), 1), self.sort_box))
         layout.addWidget(self.list)
         self.list.currentRowChanged.connect(lambda r: 0 <= r < len(self.order) and model.set_current(self.order[r]))
         self.sort_box.toggled.connect(lambda on: self.rebuild())
@@ -118,15 +124,8 @@ class LabelsPanel(QWidget):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(QLabel("Labels (keys 1–9; double-click to rename; tick to show)"))
         layout.addWidget(self.list)
-        row = QHBoxLayout()
-        row.addWidget(QLabel("Opacity"))
-        row.addWidget(self.opacity_slider, 1)
-        row.addWidget(self.only_box)
-        layout.addLayout(row)
-        row = QHBoxLayout()
-        for b in (self.add_button, self.color_button, self.delete_button):
-            row.addWidget(b)
-        layout.addLayout(row)
+        layout.addLayout(hbox(QLabel("Opacity"), (self.opacity_slider, 1), self.only_box))
+        layout.addLayout(hbox(self.add_button, self.color_button, self.delete_button))
         self.list.itemChanged.connect(self._on_item_changed)
         self.list.currentRowChanged.connect(self._sync_opacity)
         self.opacity_slider.valueChanged.connect(self._on_opacity)
@@ -212,26 +211,11 @@ class ToolsPanel(QWidget):
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.paint_box)
-        row = QHBoxLayout()
-        row.addWidget(self.brush_radio)
-        row.addWidget(self.fill_radio)
-        row.addWidget(self.fill_bound_combo, 1)
-        layout.addLayout(row)
-        row = QHBoxLayout()
-        row.addWidget(QLabel("Crease"))
-        row.addWidget(self.crease_slider, 1)
-        row.addWidget(self.crease_label)
-        layout.addLayout(row)
-        row = QHBoxLayout()
-        row.addWidget(self.eraser_box)
-        row.addWidget(QLabel("Brush ([ ])"))
-        row.addWidget(self.brush_slider)
-        layout.addLayout(row)
+        layout.addLayout(hbox(self.brush_radio, self.fill_radio, (self.fill_bound_combo, 1)))
+        layout.addLayout(hbox(QLabel("Crease"), (self.crease_slider, 1), self.crease_label))
+        layout.addLayout(hbox(self.eraser_box, QLabel("Brush ([ ])"), self.brush_slider))
         layout.addWidget(self.preview_box)
-        row = QHBoxLayout()
-        row.addWidget(QLabel("Show"))
-        row.addWidget(self.show_combo, 1)
-        layout.addLayout(row)
+        layout.addLayout(hbox(QLabel("Show"), (self.show_combo, 1)))
 
 
 class RunPanel(QWidget):
@@ -257,18 +241,9 @@ class RunPanel(QWidget):
         self.energy_plot = EnergyPlot()
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        row = QHBoxLayout()
-        row.addWidget(self.run_button)
-        row.addWidget(self.stop_button)
-        layout.addLayout(row)
-        row = QHBoxLayout()
-        row.addWidget(self.predict_button)
-        row.addWidget(self.export_button)
-        layout.addLayout(row)
-        row = QHBoxLayout()
-        row.addWidget(self.accept_button)
-        row.addWidget(self.suggest_button)
-        layout.addLayout(row)
+        layout.addLayout(hbox(self.run_button, self.stop_button))
+        layout.addLayout(hbox(self.predict_button, self.export_button))
+        layout.addLayout(hbox(self.accept_button, self.suggest_button))
         layout.addWidget(self.progress)
         layout.addWidget(self.energy_plot)
         runs.started.connect(self._on_started)
