@@ -174,6 +174,7 @@ class MainWindow(QMainWindow):
         labels.delete_button.clicked.connect(self._on_delete_label)
         tools.show_combo.currentTextChanged.connect(self.view.set_mode)
         tools.paint_box.toggled.connect(lambda on: setattr(self.viewport, "paint_mode", on))
+        tools.paint_box.toggled.connect(lambda on: on or self.toolbox.clear_highlight())
         tools.brush_radio.toggled.connect(lambda on: on and self.toolbox.set_tool("brush"))
         tools.fill_radio.toggled.connect(lambda on: on and self.toolbox.set_tool("fill"))
         tools.fill_bound_combo.currentIndexChanged.connect(

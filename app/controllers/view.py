@@ -76,6 +76,7 @@ class ViewController:
         self._jobs: dict[int, Job] = {}  # features being computed, per shape
         self._loading: Job | None = None
         self.opacity: dict[int, float] = {}  # label -> opacity in [0, 1]; 1 when absent
+        self._label_count = len(model.label_set)
         self.only_current = False
         self.highlight: tuple[int, np.ndarray] | None = None  # (shape, file faces) a fill would paint
         model.collection_changed.connect(self._on_collection_changed)
@@ -85,7 +86,7 @@ class ViewController:
         model.current_changed.connect(self._on_current_changed)
         model.scribbles_changed.connect(lambda index, faces: self.refresh(index))
         model.result_changed.connect(self.refresh)
-        model.labels_changed.connect(lambda: self.refresh(model.current))
+        model.labels_changed.connect(self._on_labels_changed)
 
     @property
     def viewport(self):
@@ -97,6 +98,12 @@ class ViewController:
         if mode not in SHOW_MODES:
             raise ValueError(f"unknown show mode {mode!r}; one of {', '.join(SHOW_MODES)}")
         self.mode = mode
+        self.refresh(self.model.current)
+
+    def _on_labels_changed(self) -> None:
+        if len(self.model.label_set) != self._label_count:  # a label added or deleted: ids moved
+            self._label_count = len(self.model.label_set)
+            self.opacity.clear()
         self.refresh(self.model.current)
 
     def set_label_opacity(self, label: int, opacity: float) -> None:
@@ -263,6 +270,7 @@ class ViewController:
         self._features.clear()
         self.highlight = None
         self.opacity.clear()
+        self._label_count = len(self.model.label_set)
         if self._loading is not None:
             self._loading.cancel()
             self._loading = None

@@ -160,7 +160,7 @@ class TrainedModel:
     params: SegmentParams
     encoder: PatchEncoder | None = None
     delta: float | None = None
-    halves: tuple = ()
+    halves: tuple[FaceClassifier, ...] = ()
 
     def log_proba(self, shape: ShapeData) -> np.ndarray:
         """The learner's log label probabilities for the faces of `shape`, (m, k) float64."""
@@ -234,8 +234,9 @@ def segment_collection(
     params : SegmentParams
     warm : TrainedModel, optional
         A model from an earlier run on this collection: when it has the same labels, inputs
-        and stages, its learner continues training (``NetworkParams.warm_epochs``) instead of
-        starting over, so a run after a few corrections is faster. Otherwise ignored.
+        and stages, its networks (the learner and the cross-fitting halves) continue training
+        (``NetworkParams.warm_epochs``) instead of starting over, so a run after a few
+        corrections is faster. Otherwise ignored.
 
     Yields
     ------

@@ -136,6 +136,9 @@ def test_the_view_fades_hides_tints_and_shows_the_confidence(creatures):
     view.set_label_opacity(1, 0.5)
     assert np.allclose(viewport.colors[limb], 0.5 * base[limb] + 0.5 * SURFACE)
     view.set_label_opacity(1, 1.0)
+    view.set_label_opacity(2, 0.0)
+    model.add_label("tail")  # ids may move when labels come and go: every label shows again
+    assert view.label_opacity(2) == 1.0
     model.set_current_label(2)
     view.set_only_current(True)
     assert np.allclose(viewport.colors[truth[0] != 2], SURFACE) and np.allclose(viewport.colors[truth[0] == 2],
