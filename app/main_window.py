@@ -29,7 +29,7 @@ from scribbleseg_app.controllers.frames import FrameClock
 from scribbleseg_app.controllers.jobs import Dispatcher
 from scribbleseg_app.controllers.preview import PreviewController
 from scribbleseg_app.controllers.run import RunController
-from scribbleseg_app.controllers.tools import ToolsController
+from scribbleseg_app.controllers.tools import FILL_BOUNDS, ToolsController
 from scribbleseg_app.controllers.view import SHOW_MODES, ViewController
 from scribbleseg_app.keys import KEYS, sheet
 from scribbleseg_app.model import CollectionModel
@@ -178,7 +178,7 @@ class MainWindow(QMainWindow):
         tools.brush_radio.toggled.connect(lambda on: on and self.toolbox.set_tool("brush"))
         tools.fill_radio.toggled.connect(lambda on: on and self.toolbox.set_tool("fill"))
         tools.fill_bound_combo.currentIndexChanged.connect(
-            lambda i: self.toolbox.set_fill_bound(("creases", "labels")[i]))
+            lambda i: self.toolbox.set_fill_bound(FILL_BOUNDS[i]))
         tools.crease_slider.valueChanged.connect(lambda v: self.toolbox.set_crease(v / 10.0))
         tools.eraser_box.toggled.connect(lambda on: m.set_current_label(-1 if on else max(labels.list.currentRow(), 0)))
         tools.brush_slider.valueChanged.connect(lambda v: m.set_brush_radius(v / 1000.0))
@@ -321,9 +321,10 @@ class MainWindow(QMainWindow):
             self._on_shown(s.index)
 
     def _on_shown(self, index: int) -> None:
-        s, self._focus_on = self._focus_on, None
+        s = self._focus_on
         if s is None or s.index != index or self._viewport is None:
             return
+        self._focus_on = None
         mesh = self.model.shapes[index].mesh()
         tri = mesh.V_file[mesh.F_file[s.face]]
         self.viewport.focus(tri.mean(axis=0), np.cross(tri[1] - tri[0], tri[2] - tri[0]))
