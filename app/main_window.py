@@ -15,6 +15,7 @@ from PySide6.QtGui import QAction, QColor, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QColorDialog,
     QDialog,
+    QDialogButtonBox,
     QFileDialog,
     QInputDialog,
     QMainWindow,
@@ -288,10 +289,15 @@ class MainWindow(QMainWindow):
         table.horizontalHeader().setStretchLastSection(True)
         table.resizeColumnsToContents()
         table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
-        QVBoxLayout(dialog).addWidget(table)
-        dialog.resize(640, 520)
+        close = QDialogButtonBox(QDialogButtonBox.StandardButton.Close, dialog)
+        close.rejected.connect(dialog.close)
+        layout = QVBoxLayout(dialog)
+        layout.addWidget(table)
+        layout.addWidget(close)
+        dialog.resize(640, 560)
         dialog.setModal(False)
         dialog.show()
+        dialog.activateWindow()  # Escape closes it
         self.keys_dialog = dialog
 
     # ---------------------------------------------------------------- guidance
