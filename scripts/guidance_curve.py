@@ -104,17 +104,20 @@ def cmd_run(args) -> int:
     return 0
 
 
-def mean_curves(folders: list[Path]) -> tuple[dict, int]:
-    """Per strategy, (mean strokes, mean error, sd of the per-run means) per step over every
-    category and run folder; and the number of category runs."""
-    runs = [json.loads(p.read_text()) for f in folders for p in sorted(f.glob("*.json"))]
+def load_runs(folders: list[Path]) -> list[dict]:
+    """Every category run in `folders` (one JSON per category and seed)."""
+    return [json.loads(p.read_text()) for f in folders for p in sorted(f.glob("*.json"))]
+
+
+def curves(runs: list[dict]) -> tuple[dict, int]:
+    """Per strategy, (strokes, error) arrays of shape (runs, steps), cut to the shortest run."""
     steps = min(len(r[s]["curve"]) for r in runs for s in STRATEGIES)
-    curves = {}
+    out = {}
     for s in STRATEGIES:
         x = np.array([[c[0] for c in r[s]["curve"][:steps]] for r in runs], float)
         y = np.array([[c[1] for c in r[s]["curve"][:steps]] for r in runs], float)
-        curves[s] = (x.mean(0), y.mean(0), y.std(0) / np.sqrt(len(runs)))
-    return curves, len(runs)
+        out[s] = (x, y)
+    return out, steps
 
 
 def strokes_to(x: np.ndarray, y: np.ndarray, target: float) -> float:
@@ -129,14 +132,26 @@ def strokes_to(x: np.ndarray, y: np.ndarray, target: float) -> float:
 
 
 def cmd_plot(args) -> int:
-    curves, n = mean_curves([Path(f) for f in args.folders])
-    print(f"| painted shapes | {' | '.join(f'{s}: strokes, error' for s in STRATEGIES)} |")
-    print(f"|---|{'---|' * len(STRATEGIES)}")
-    for k in range(len(curves[STRATEGIES[0]][0])):
-        cells = " | ".join(f"{curves[s][0][k]:.1f}, {curves[s][1][k]:.4f} ± {curves[s][2][k]:.4f}" for s in STRATEGIES)
-        print(f"| {k + 1} | {cells} |")
-    for s in STRATEGIES:
-        print(f"{s}: strokes to reach {TARGET}: {strokes_to(curves[s][0], curves[s][1], TARGET):.1f} ({n} category runs)")
+    runs = load_runs([Path(f) for f in args.folders])
+    c, steps = curves(runs)
+    n = len(runs)
+    (xs, ys), (xr, yr) = c["suggested"], c["random"]
+    diff = ys - yr
+    print(f"{n} category runs; mean over them (± standard error of the paired difference)\n")
+    print("| painted shapes | strokes (suggested / random) | error, suggested | error, random | suggested − random | suggested better in |")
+    print("|---|---|---|---|---|---|")
+    for k in range(steps):
+        se = diff[:, k].std(ddof=1) / np.sqrt(n) if n > 1 else float("nan")
+        better = int((diff[:, k] < 0).sum())
+        print(f"| {k + 1} | {xs[:, k].mean():.1f} / {xr[:, k].mean():.1f} | {ys[:, k].mean():.4f} | {yr[:, k].mean():.4f} "
+              f"| {diff[:, k].mean():+.4f} ± {se:.4f} | {better} of {n} |")
+    print()
+    for target in (TARGET, yr[:, -1].mean()):
+        a = strokes_to(xs.mean(0), ys.mean(0), target)
+        b = strokes_to(xr.mean(0), yr.mean(0), target)
+        print(f"strokes for a mean error of {target:.4f}: suggested {a:.1f}, random {b:.1f}")
+    print(f"category runs at or below {TARGET} with the last step: suggested {(ys[:, -1] <= TARGET).sum()}, "
+          f"random {(yr[:, -1] <= TARGET).sum()} of {n}")
     if args.figure:
         import matplotlib
 
@@ -144,13 +159,12 @@ def cmd_plot(args) -> int:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(6, 3.6))
-        for s in STRATEGIES:
-            x, y, se = curves[s]
-            ax.errorbar(x, y, yerr=se, marker="o", capsize=3, label=s)
+        for s, (x, y) in c.items():
+            ax.errorbar(x.mean(0), y.mean(0), yerr=y.std(0, ddof=1) / np.sqrt(n), marker="o", capsize=3, label=s)
         ax.axhline(TARGET, color="gray", lw=0.8, ls="--")
-        ax.set_xlabel("strokes (mean over categories)")
+        ax.set_xlabel("strokes (mean over category runs)")
         ax.set_ylabel("Rand Index error, unpainted shapes")
-        ax.set_title(f"Painting where the app suggests ({n} category runs)")
+        ax.set_title(f"Painting where the app suggests ({n} category runs)", fontsize=10)
         ax.legend()
         fig.tight_layout()
         fig.savefig(args.figure, dpi=110)
