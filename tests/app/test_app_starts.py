@@ -234,7 +234,7 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
     # export only the current shape
     w2.shapes.list.setCurrentRow(10)
     written = w2.files.export(tmp_path / "export_one", only=[w2.model.current], wait=True)
-    assert sorted(p.suffix for p in written) == [".glb", ".json", ".mtl", ".obj", ".ply", ".seg"]
+    assert sorted(p.suffix for p in written) == [".glb", ".json", ".mtl", ".obj", ".ply", ".seg", ".vtp"]
     # inspect: a feature as the surface color (computed in the background, from the cache)
     w2.tools.show_combo.setCurrentText("Feature: SDF")
     qtbot.waitUntil(lambda: w2.view.feature_values(10, 1) is not None, timeout=60_000)
