@@ -262,6 +262,9 @@ class MainWindow(QMainWindow):
         elif command == "confidence":
             mode = SHOW_MODES[0] if tools.show_combo.currentText() == "Confidence" else "Confidence"
             tools.show_combo.setCurrentText(mode)
+        elif command in ("next view", "previous view"):
+            step = 1 if command == "next view" else -1
+            tools.show_combo.setCurrentIndex((tools.show_combo.currentIndex() + step) % tools.show_combo.count())
         elif command == "suggestion":
             self.go_to_suggestion()
         elif command == "accept":

@@ -1,4 +1,4 @@
-"""The labeling tools through the model and the controllers, without Qt: fill, surface brush,
+"""The labeling tools through the model and the controllers, without Qt widgets: fill, surface brush,
 label visibility, confidence, the suggestion, accept and correct, the keys."""
 
 from __future__ import annotations
@@ -168,7 +168,13 @@ def test_the_view_fades_hides_tints_and_shows_the_confidence(creatures):
 
 
 def test_every_key_is_listed_once():
+    import inspect
+
+    from scribbleseg_app.main_window import MainWindow
+
     keys = [(k.keys, k.command) for k in KEYS]
+    handled = inspect.getsource(MainWindow.command)
+    assert all(f'"{c}"' in handled or c.startswith("label ") for _, c in keys)  # each does something
     assert len({k for k, _ in keys}) == len(keys) and len({c for _, c in keys}) == len(keys)
     assert len(sheet()) == len(KEYS) - 8  # the nine label keys are one row
     assert all(k.imgui is None or k.imgui for k in KEYS)
