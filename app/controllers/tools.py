@@ -100,21 +100,23 @@ class ToolsController:
 
     def fill_region(self, index: int, face: int) -> np.ndarray | None:
         """File faces a fill clicked on file face `face` of shape `index` would paint, (k,)
-        int64; None while the shape's regions are built."""
+        int64; None while the shape's regions (and face graph) are built in the background."""
         m = self.model
         mesh = m.shapes[index].mesh()
         if not 0 <= face < mesh.num_file_faces:
             return np.zeros(0, np.int64)
-        brush = m.brush(index)
         seed = int(mesh.file_to_proc[face])
+        fill = self.regions(index)  # its job also builds the shape's face graph (the brush's)
+        if fill is None:
+            return None
+        brush = m.brush(index)
         if self.fill_bound == "labels":
             from scribbleseg_core.engine.regions import fill_by_labels
 
             shown = m.shown_labels(index)
             labels = shown if shown is not None else m.layer(index).labels
             return brush.file_faces(fill_by_labels(brush.graph, seed, labels[mesh.proc_to_file]))
-        fill = self.regions(index)
-        return None if fill is None else brush.file_faces(fill.by_crease(seed, self.crease_deg))
+        return brush.file_faces(fill.by_crease(seed, self.crease_deg))
 
     def fill(self, face: int) -> int:
         """Fill from file face `face` of the current shape with the current label (the eraser

@@ -51,6 +51,8 @@ def test_a_fill_bounded_by_labels_paints_one_part_in_one_undo_step(creatures):
     model.set_result(0, truth[0], "predicted")
     limb_face = int(np.flatnonzero(truth[0] == 1)[0])
     model.set_current_label(2)
+    assert tools.fill(limb_face) == -1  # the shape's face graph is built in the background first
+    until(lambda: tools.regions(0) is not None, dispatcher)
     tools.begin()
     tools.at(np.zeros(3), limb_face)
     tools.at(np.zeros(3), limb_face + 1)  # the rest of the drag fills nothing more
