@@ -258,7 +258,7 @@ class CollectionModel:
             return 0
         layer = self.layer(index)
         faces = np.flatnonzero((layer.labels < 0) & (labels >= 0))
-        changed = self.paint_faces(index, faces, by_face=labels[faces]) if faces.size else faces
+        changed = self.paint_faces(index, faces, labels[faces]) if faces.size else faces
         entry = self.shapes[index]
         if len(changed) and entry.state != "scribbled":  # its labels are the user's now: it trains as painted
             entry.state = "scribbled"
@@ -379,9 +379,7 @@ class CollectionModel:
                 self.add_label(name if name not in self.label_set.names else f"{name} (restored)")
             layer = self.layer(i)
             layer.begin()
-            layer.paint(np.arange(len(labels)), -1)
-            for lab in np.unique(labels[labels >= 0]):
-                layer.paint(np.flatnonzero(labels == lab), int(lab))
+            layer.paint(np.arange(len(labels)), labels)
             layer.end()  # one undo step: the restore can be undone
             self.scribbles_changed.emit(i, np.arange(len(labels)))
             self._after_edit(i)
@@ -580,19 +578,13 @@ class CollectionModel:
         if self.layer(self.current).end():
             self._after_edit(self.current)
 
-    def paint_faces(self, index: int, faces, label: int | None = None, *, by_face: np.ndarray | None = None) -> np.ndarray:
-        """Give file faces `faces` of shape `index` the scribble `label` (-1 erases), or each
-        its own label from `by_face` (same length as `faces`), in one undo step, as a finished
-        stroke does (autosave, preview). Returns the faces that changed."""
+    def paint_faces(self, index: int, faces, label: int | np.ndarray) -> np.ndarray:
+        """Give file faces `faces` of shape `index` the scribble `label` (-1 erases), or each its
+        own label (`label` of the length of `faces`), in one undo step, as a finished stroke does
+        (autosave, preview). Returns the faces that changed."""
         layer = self.layer(index)
-        faces = np.asarray(faces, dtype=np.int64)
         layer.begin()
-        if by_face is None:
-            changed = layer.paint(faces, int(label))
-        else:
-            by_face = np.asarray(by_face, dtype=np.int64)
-            changed = np.concatenate([layer.paint(faces[by_face == k], int(k)) for k in np.unique(by_face)]
-                                     or [np.zeros(0, np.int64)])
+        changed = layer.paint(faces, label)
         if layer.end():
             self.scribbles_changed.emit(index, changed)
             self._after_edit(index)

@@ -40,15 +40,21 @@ class ScribbleLayer:
     def begin(self) -> None:
         self._stroke = {}
 
-    def paint(self, faces: np.ndarray, label: int) -> np.ndarray:
-        """Set `faces` to `label` (ERASE clears them); returns the faces that changed."""
+    def paint(self, faces: np.ndarray, label: int | np.ndarray) -> np.ndarray:
+        """Set `faces` to `label` (ERASE clears them), or each face to its own label (`label` of
+        the length of `faces`; the first one where a face repeats); returns the faces that
+        changed, sorted."""
         if self._stroke is None:
             raise RuntimeError("paint() outside a stroke: call begin() first")
-        faces = np.unique(np.asarray(faces, dtype=np.int64))
-        changed = faces[self.labels[faces] != label]
+        faces = np.asarray(faces, dtype=np.int64)
+        labels = np.broadcast_to(np.asarray(label, dtype=np.int64), faces.shape)
+        faces, first = np.unique(faces, return_index=True)
+        labels = labels[first]
+        differs = self.labels[faces] != labels
+        changed = faces[differs]
         for f in changed:
             self._stroke.setdefault(int(f), int(self.labels[f]))
-        self.labels[changed] = label
+        self.labels[changed] = labels[differs]
         return changed
 
     def end(self) -> bool:
@@ -111,7 +117,7 @@ class Brush:
         self.graph = dual_graph(V, F)
         self.tree = cKDTree(V[F].mean(axis=1))
         self.scale = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
-        self._file_to_proc = mesh.file_to_proc  # a dropped duplicate or degenerate file face follows its twin
+        self.mesh = mesh
 
     def faces_along(self, p: np.ndarray, q: np.ndarray | None, radius: float) -> np.ndarray:
         """File faces within ``radius · scale`` along the surface of the segment from `q`
@@ -127,10 +133,4 @@ class Brush:
             t = np.linspace(0.0, 1.0, n + 1)[:, None]
             pts = np.asarray(q)[None] * (1 - t) + p[None] * t
         seeds = np.unique(self.tree.query(pts)[1])
-        return self.file_faces(surface_disc(self.graph, seeds, r))
-
-    def file_faces(self, faces: np.ndarray) -> np.ndarray:
-        """The file faces of repaired faces `faces`, (k,) int64 sorted."""
-        chosen = np.zeros(self.graph.num_faces, bool)
-        chosen[np.asarray(faces, dtype=np.int64)] = True
-        return np.flatnonzero(chosen[self._file_to_proc]).astype(np.int64)
+        return self.mesh.faces_to_file(surface_disc(self.graph, seeds, r))

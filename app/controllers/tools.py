@@ -115,8 +115,8 @@ class ToolsController:
 
             shown = m.shown_labels(index)
             labels = shown if shown is not None else m.layer(index).labels
-            return brush.file_faces(fill_by_labels(brush.graph, seed, labels[mesh.proc_to_file]))
-        return brush.file_faces(fill.by_crease(seed, self.crease_deg))
+            return mesh.faces_to_file(fill_by_labels(brush.graph, seed, mesh.labels_from_file(labels)))
+        return mesh.faces_to_file(fill.by_crease(seed, self.crease_deg))
 
     def fill(self, face: int) -> int:
         """Fill from file face `face` of the current shape with the current label (the eraser

@@ -135,10 +135,11 @@ class ViewController:
         entry = m.shapes[index]
         if not entry.loaded:
             return None
+        feature = self.feature_values(index, FEATURE_COLUMN[self.mode]) if self.mode in FEATURE_COLUMN else None
         if self.mode == "Confidence" and entry.confidence is not None:
             colors = value_colors(entry.confidence, (0.0, 1.0))
-        elif self.mode in FEATURE_COLUMN and self.feature_values(index, FEATURE_COLUMN[self.mode]) is not None:
-            colors = value_colors(self.feature_values(index, FEATURE_COLUMN[self.mode]))
+        elif feature is not None:
+            colors = value_colors(feature)
         else:
             colors = self._label_colors(index)
         suggestion = m.suggestion

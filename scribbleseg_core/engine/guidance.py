@@ -18,10 +18,8 @@ import numpy as np
 from scipy.sparse.csgraph import dijkstra
 
 from scribbleseg_core.engine.regions import components
+from scribbleseg_core.formats.export import UNCONFIDENT
 from scribbleseg_core.geometry.dual_graph import DualGraph
-
-#: Faces below this confidence count as unconfident in :func:`suggest` and in the summaries.
-UNCONFIDENT = 0.5
 
 
 def label_confidence(log_proba: np.ndarray, labels: np.ndarray, scribble: np.ndarray | None = None) -> np.ndarray:

@@ -399,12 +399,8 @@ class _Networks:
 
     def held_out_log_proba(self, inputs) -> list[np.ndarray | None]:
         """Per shape, the log-probabilities of the trained first-stage network that did not see
-        its labels; None where there is none."""
-        out = []
-        for i, x in enumerate(inputs):
-            net = self._held_out(i) if x is not None else None
-            out.append(None if net is None else net.log_proba(x))
-        return out
+        its labels (those the last fit computed, else now); None where there is none."""
+        return [None if x is None else self._held_out_log_proba(i, x) for i, x in enumerate(inputs)]
 
     def log_proba(self, inputs) -> list[np.ndarray | None]:
         out = []

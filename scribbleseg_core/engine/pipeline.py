@@ -19,7 +19,7 @@ from scribbleseg_core.engine.optimize import (
     TrainedModel,
     segment_collection,
 )
-from scribbleseg_core.engine.predict import predict_shape
+from scribbleseg_core.engine.predict import predict_shape, predict_with_confidence
 from scribbleseg_core.engine.shape import prepare_shape
 from scribbleseg_core.formats.mesh import Mesh
 
@@ -136,8 +136,7 @@ def collection_run(
     hint = suggest([s.graph for s in shapes], [s.area for s in shapes], confidence)
     if hint is not None:
         mesh = meshes[hint.shape]
-        yield Suggested(hint.shape, np.flatnonzero(np.isin(mesh.file_to_proc, hint.faces)),
-                        int(mesh.proc_to_file[hint.face]), hint.score)
+        yield Suggested(hint.shape, mesh.faces_to_file(hint.faces), int(mesh.proc_to_file[hint.face]), hint.score)
 
 
 def collection_confidence(last: Snapshot, shapes: Sequence, labels: Sequence[np.ndarray]) -> list[np.ndarray]:
@@ -179,7 +178,6 @@ def predict_run(model: TrainedModel, meshes: Sequence[Mesh], *,
         if model.learner.stage2 is not None:
             shape.label_context  # noqa: B018 - computed (or read) in the features phase
         yield FeaturesDone(i, i + 1, len(meshes))
-        logp = model.log_proba(shape)
-        labels = predict_shape(model, shape, logp)
+        labels, confidence = predict_with_confidence(model, shape)
         yield Predicted(i, mesh.labels_to_file(labels))
-        yield _scored(i, mesh, shape, label_confidence(logp, labels, shape.scribble))
+        yield _scored(i, mesh, shape, confidence)

@@ -6,9 +6,19 @@ import numpy as np
 
 from scribbleseg_core.engine.energy import feature_weights, network_unary, scribble_unary
 from scribbleseg_core.engine.graphcut import alpha_expansion
+from scribbleseg_core.engine.guidance import label_confidence
 from scribbleseg_core.engine.optimize import TrainedModel
 from scribbleseg_core.engine.propagate import FaceEnergy
 from scribbleseg_core.engine.shape import ShapeData
+
+
+def predict_with_confidence(model: TrainedModel, shape: ShapeData) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`predict_shape`'s labels (m,) and their confidence (m,) in [0, 1] under the model's
+    probabilities (:func:`~scribbleseg_core.engine.guidance.label_confidence`; the model never
+    saw the shape), from one pass of the network."""
+    logp = model.log_proba(shape)
+    labels = predict_shape(model, shape, logp)
+    return labels, label_confidence(logp, labels, shape.scribble)
 
 
 def predict_shape(model: TrainedModel, shape: ShapeData, log_proba: np.ndarray | None = None) -> np.ndarray:
@@ -24,7 +34,7 @@ def predict_shape(model: TrainedModel, shape: ShapeData, log_proba: np.ndarray |
     model : TrainedModel
     shape : ShapeData
     log_proba : (m, k) float ndarray, optional
-        ``model.log_proba(shape)`` when the caller has it already (e.g. for the confidence).
+        ``model.log_proba(shape)`` when the caller has it already (:func:`predict_with_confidence`).
 
     Returns
     -------

@@ -54,17 +54,7 @@ class RegionFill:
         """Faces reached from face `seed` across no patch border whose mean concave angle
         exceeds `crease_deg` degrees and no edge sharper than ``EDGE_FACTOR · crease_deg``;
         sorted (k,) int64."""
-        _check_seed(self.graph, seed)
-        keep = (self.border_angle <= crease_deg) & (self.angle <= EDGE_FACTOR * crease_deg)
-        g = self.graph
-        reached = breadth_first_order(_symmetric(g.pairs[keep, 0], g.pairs[keep, 1], g.num_faces), int(seed),
-                                      directed=False, return_predecessors=False)
-        return np.sort(reached).astype(np.int64)
-
-    def by_labels(self, seed: int, labels: np.ndarray) -> np.ndarray:
-        """Faces connected to face `seed` across shared edges whose label (`labels`, (m,)
-        int, e.g. the shown result) equals the seed's; sorted (k,) int64."""
-        return fill_by_labels(self.graph, seed, labels)
+        return _reached(self.graph, (self.border_angle <= crease_deg) & (self.angle <= EDGE_FACTOR * crease_deg), seed)
 
 
 def fill_by_labels(graph: DualGraph, seed: int, labels: np.ndarray) -> np.ndarray:
@@ -77,15 +67,10 @@ def fill_by_labels(graph: DualGraph, seed: int, labels: np.ndarray) -> np.ndarra
     labels : (m,) int ndarray
         Per-face labels (-1 counts as a label of its own).
     """
-    _check_seed(graph, seed)
     labels = np.asarray(labels)
     if labels.shape != (graph.num_faces,):
         raise ValueError(f"labels has shape {labels.shape}, expected ({graph.num_faces},)")
-    keep = labels[graph.pairs[:, 0]] == labels[graph.pairs[:, 1]]
-    i, j = graph.pairs[keep, 0], graph.pairs[keep, 1]
-    reached = breadth_first_order(_symmetric(i, j, graph.num_faces), int(seed), directed=False,
-                                  return_predecessors=False)
-    return np.sort(reached).astype(np.int64)
+    return _reached(graph, labels[graph.pairs[:, 0]] == labels[graph.pairs[:, 1]], seed)
 
 
 def crease_angle_deg(graph: DualGraph) -> np.ndarray:
@@ -131,9 +116,13 @@ def components(graph: DualGraph, mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def _check_seed(graph: DualGraph, seed: int) -> None:
+def _reached(graph: DualGraph, keep: np.ndarray, seed: int) -> np.ndarray:
+    """Faces reached from face `seed` across the face pairs where `keep` (q,) holds; sorted (k,) int64."""
     if not 0 <= seed < graph.num_faces:
         raise ValueError(f"seed face {seed} out of range for {graph.num_faces} faces")
+    reached = breadth_first_order(_symmetric(graph.pairs[keep, 0], graph.pairs[keep, 1], graph.num_faces), int(seed),
+                                  directed=False, return_predecessors=False)
+    return np.sort(reached).astype(np.int64)
 
 
 def _symmetric(i: np.ndarray, j: np.ndarray, n: int) -> sp.csr_matrix:

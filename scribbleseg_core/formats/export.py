@@ -39,7 +39,8 @@ from scribbleseg_core.infra.atomic import (
 
 ExportFormat = Literal["ply", "seg", "obj", "glb", "json", "vtp"]
 EXPORT_FORMATS: tuple[str, ...] = ("ply", "seg", "obj", "glb", "json", "vtp")
-#: Faces below this confidence are counted as unconfident in the JSON summary.
+#: Faces below this confidence count as unconfident: in the JSON summary, and for the app's
+#: "paint here next" (:func:`scribbleseg_core.engine.guidance.suggest`).
 UNCONFIDENT = 0.5
 UNLABELED_NAME = "unlabeled"
 

@@ -127,6 +127,13 @@ class Mesh:
         """Per-face values on the repaired mesh, (m, ...) -> per file face, (m0, ...)."""
         return np.asarray(labels)[self.file_to_proc]
 
+    def faces_to_file(self, faces: np.ndarray) -> np.ndarray:
+        """The file faces of repaired faces `faces` (a dropped duplicate or degenerate file face
+        goes with the face that took its label), sorted (k,) int64."""
+        chosen = np.zeros(self.F.shape[0], bool)
+        chosen[np.asarray(faces, dtype=np.int64)] = True
+        return np.flatnonzero(self.labels_to_file(chosen)).astype(np.int64)
+
     def labels_from_file(self, labels: np.ndarray) -> np.ndarray:
         """Per file face values, (m0, ...) -> per repaired face, (m, ...)."""
         return np.asarray(labels)[self.proc_to_file]

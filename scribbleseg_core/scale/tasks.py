@@ -50,8 +50,7 @@ def predict_task(model_folder: str, job: str, source: str, key: str, out: str, f
     """
     t0 = time.perf_counter()
     try:
-        from scribbleseg_core.engine.guidance import label_confidence
-        from scribbleseg_core.engine.predict import predict_shape
+        from scribbleseg_core.engine.predict import predict_with_confidence
         from scribbleseg_core.engine.shape import prepare_shape
         from scribbleseg_core.formats.export import export_labeled_mesh
         from scribbleseg_core.formats.labels import LabelSet
@@ -59,13 +58,11 @@ def predict_task(model_folder: str, job: str, source: str, key: str, out: str, f
 
         model = worker_model(model_folder, job)
         mesh = load_mesh(source)
-        shape = prepare_shape(mesh, num_patches=num_patches)
-        logp = model.log_proba(shape)
-        labels = predict_shape(model, shape, logp)
-        conf = mesh.labels_to_file(label_confidence(logp, labels)) if confidence else None
+        labels, conf = predict_with_confidence(model, prepare_shape(mesh, num_patches=num_patches))
         target = Path(out) / key
         written = export_labeled_mesh(target.parent, target.name, mesh.V_file, mesh.F_file, mesh.labels_to_file(labels),
-                                      LabelSet.from_names(model.label_names), formats=formats, confidence=conf)
+                                      LabelSet.from_names(model.label_names), formats=formats,
+                                      confidence=mesh.labels_to_file(conf) if confidence else None)
         outputs = [p.relative_to(out).as_posix() for p in written]
         return {"key": key, "outputs": outputs, "faces": int(mesh.num_file_faces),
                 "seconds": time.perf_counter() - t0, "peak_mb": peak_memory_mb()}

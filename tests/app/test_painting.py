@@ -67,3 +67,14 @@ def test_fast_drags_leave_no_gaps_and_the_brush_stays_on_its_sheet():
     assert np.abs(C[faces, 1]).max() < 0.03 + 0.02
     one = brush.faces_along(np.array([0.0, 0.0, 0.005]), None, 0.02)
     assert 0 < len(one) < len(faces) and top[one].all()
+
+
+def test_a_stroke_can_give_each_face_its_own_label():
+    layer = ScribbleLayer(np.array([-1, -1, 2, 2]))
+    layer.begin()
+    changed = layer.paint([3, 0, 1, 2, 0], np.array([2, 1, 0, 2, 1]))
+    np.testing.assert_array_equal(changed, [0, 1])  # 2 and 3 already had their labels
+    assert layer.end()
+    np.testing.assert_array_equal(layer.labels, [1, 0, 2, 2])
+    layer.undo()
+    np.testing.assert_array_equal(layer.labels, [-1, -1, 2, 2])
