@@ -246,7 +246,7 @@ def _bench_params(args):
     given = lambda **kw: {k: v for k, v in kw.items() if v is not None}  # noqa: E731
     return replace(base, network=replace(base.network, threads=args.threads, **given(seed=args.network_seed)),
                    propagation=replace(base.propagation, **given(contrast=args.contrast, walk=args.walk,
-                                                                 convex=args.convex)),
+                                                                 convex=args.convex, boundary=args.boundary)),
                    **given(local_shape=args.local_shape, label_context=args.label_context, rounds=args.rounds))
 
 
@@ -367,6 +367,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--convex", type=_fraction, default=None,
                    help="weight of convex creases against concave ones in the face energy's smoothness and walk "
                         "(default PropagateParams.convex; 0.1 = the dual graph's crease metric)")
+    p.add_argument("--boundary", type=_non_negative, default=None,
+                   help="weight of the learned boundary term on shapes without scribbles (default "
+                        "PropagateParams.boundary; 0 = off: the crease rule there, no boundary classifier)")
     p.add_argument("--local-shape", action=argparse.BooleanOptionalAction, default=None,
                    help="the local extrinsic shape around each face among the network's inputs "
                         "(default SegmentParams.local_shape; --no-local-shape: the signatures and their context only)")

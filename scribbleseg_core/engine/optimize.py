@@ -24,8 +24,9 @@ cross-fitted network term (:class:`_Networks`), the random-walker term, the SDF 
 convex-crease weight of the smoothness (:class:`~scribbleseg_core.engine.propagate.PropagateParams`),
 the multi-scale context and local shape among the network's inputs (:attr:`SegmentParams.context_scales`,
 :attr:`SegmentParams.local_shape`), the label-context stage of the learner
-(:attr:`SegmentParams.label_context`, :mod:`~scribbleseg_core.engine.learner`), and shapes
-without scribbles taking part, smoothed harder.
+(:attr:`SegmentParams.label_context`, :mod:`~scribbleseg_core.engine.learner`), the learned
+boundary term that smooths shapes without scribbles (:mod:`~scribbleseg_core.engine.boundary`),
+and those shapes taking part.
 
 No GUI code here: the app runs the generator in a worker process.
 """
@@ -40,6 +41,7 @@ from typing import Literal
 
 import numpy as np
 
+from scribbleseg_core.engine.boundary import BoundaryClassifier, edge_features, label_boundaries
 from scribbleseg_core.engine.energy import (
     EnergyTerms,
     energy_terms,
@@ -153,6 +155,10 @@ class TrainedModel:
     halves : tuple of FaceClassifier
         The first-stage networks trained on each half of the collection (cross-fitting), for
         a later run to continue (``segment_collection(warm=)``); not saved with the model.
+    boundary : BoundaryClassifier or None
+        ``"face"`` only: where labels meet (:mod:`~scribbleseg_core.engine.boundary`), learned
+        from the scribbled shapes' labels with the networks; the smoothness of shapes without
+        scribbles. None where those labels hold no boundary (then the crease rule).
     """
 
     learner: Learner
@@ -161,6 +167,15 @@ class TrainedModel:
     encoder: PatchEncoder | None = None
     delta: float | None = None
     halves: tuple[FaceClassifier, ...] = ()
+    boundary: BoundaryClassifier | None = None
+
+    def boundary_proba(self, shape: ShapeData) -> np.ndarray | None:
+        """(q,) probability of a label boundary across each face pair of `shape`, or None
+        without a boundary classifier."""
+        if self.boundary is None:
+            return None
+        x = self.params.network_input(shape)
+        return self.boundary.proba(edge_features(shape.graph, shape.X, x), self.params.network.threads)
 
     def log_proba(self, shape: ShapeData) -> np.ndarray:
         """The learner's log label probabilities for the faces of `shape`, (m, k) float64."""
@@ -270,7 +285,13 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     share = params.cross_fit if params.method == "face" else 0.0
     shapes = problem.shapes
     context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
-    net = _Networks(d, len(problem.label_names), params.network, share, [s.is_scribbled for s in shapes], context_of)
+    edges_of = None
+    if params.method == "face" and params.propagation.boundary > 0:
+        def edges_of(i: int, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            g = shapes[i].graph
+            return edge_features(g, shapes[i].X, inputs[i]), label_boundaries(g, lab)
+    net = _Networks(d, len(problem.label_names), params.network, share, [s.is_scribbled for s in shapes], context_of,
+                    edges_of)
     if warm is not None and _continues(warm, net.main, problem.label_names, params):
         net.continue_from(warm, params.network.threads)
     model, logp, best, it = None, None, np.inf, 0
@@ -280,12 +301,14 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
         net.fit(inputs, labels)
         new_logp = net.log_proba(inputs)
+        new_model = net.model(problem)
+        problem.use(new_model)
         e_train = problem.energy(labels, new_logp)
         if previous is not None and e_train.total > energy.total:
-            net = previous  # training did not lower E: keep the networks that made these labels
+            net = previous  # training did not lower E: keep the learner that made these labels
+            problem.use(model)
             break
-        logp, energy = new_logp, e_train
-        model = net.model(problem)
+        logp, energy, model = new_logp, e_train, new_model
         yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
                        model)
         t = time.perf_counter()
@@ -333,11 +356,18 @@ class _Networks:
         Per shape: is it scribbled (cross-fitted)?
     context_of : callable(int) -> LabelContext, optional
         A shape's label context; None: no label-context stage.
+    edges_of : callable(int, labels) -> ((q, e) ndarray, (q,) bool ndarray), optional
+        A shape's :func:`~scribbleseg_core.engine.boundary.edge_features` and the
+        :func:`~scribbleseg_core.engine.boundary.label_boundaries` of its labels: a boundary
+        classifier is trained on the scribbled shapes' labels with the networks. None: none.
     """
 
-    def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool], context_of=None):
+    def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool], context_of=None,
+                 edges_of=None):
         n = len(mixed)
-        self.context_of = context_of
+        self.params = params
+        self.context_of, self.edges_of = context_of, edges_of
+        self.boundary: BoundaryClassifier | None = None
         stage2 = FaceClassifier(d + 2 * k, k, params) if context_of is not None else None
         self.main = Learner(FaceClassifier(d, k, params), stage2)
         self.share = share if n >= 2 else 0.0
@@ -352,8 +382,9 @@ class _Networks:
         return self.main.stage1.trained
 
     def model(self, problem) -> TrainedModel:
-        """The model of these networks: the learner, with the halves for a later run to continue."""
-        return replace(problem.model(self.main), halves=tuple(self.halves))
+        """The model of these networks: the learner and the boundary classifier, with the halves
+        for a later run to continue."""
+        return replace(problem.model(self.main), halves=tuple(self.halves), boundary=self.boundary)
 
     def continue_from(self, warm: TrainedModel, threads: int | None) -> None:
         """Start from `warm`'s networks (copies on `threads` torch threads): trainings continue
@@ -363,8 +394,12 @@ class _Networks:
             self.halves = [copy.deepcopy(h.with_threads(threads)) for h in warm.halves]
 
     def fit(self, inputs, labels) -> None:
-        """Train on every shape with labels and inputs; warm when trained before."""
+        """Train on every shape with labels and inputs, warm when trained before; the boundary
+        classifier on the scribbled shapes' labels, afresh."""
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
+        if self.edges_of is not None:
+            taught = (self.edges_of(i, labels[i]) for i in usable if self.mixed[i])
+            self.boundary = BoundaryClassifier.fit(taught, seed=self.params.seed, threads=self.params.threads)
         first = self.main.stage1
         first.fit([inputs[i] for i in usable], [labels[i] for i in usable], warm=first.trained)
         for f, half in enumerate(self.halves):
@@ -425,12 +460,24 @@ class _FaceProblem:
         self.params = params
         k = len(label_names)
         self.energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes]
+        self._boundary: BoundaryClassifier | None = None
 
     def trains_on(self, i: int) -> bool:
         return True
 
     def initial_labels(self) -> list[np.ndarray | None]:
         return [e.cut() if e.is_scribbled else None for e in self.energies]
+
+    def use(self, model: TrainedModel) -> None:
+        """Give the shapes without scribbles the smoothness of `model`'s boundary term (the
+        crease rule without one)."""
+        if model.boundary is self._boundary:
+            return
+        self._boundary = model.boundary
+        k, p = len(self.label_names), self.params.propagation
+        for i, s in enumerate(self.shapes):
+            if not s.is_scribbled:
+                self.energies[i] = FaceEnergy(s.graph, s.scribble, k, p, s.sdf, model.boundary_proba(s))
 
     def cut(self, labels, logp) -> list[np.ndarray]:
         return [e.cut(lp, init=lab) for e, lab, lp in zip(self.energies, labels, logp)]
@@ -466,6 +513,9 @@ class _PatchProblem:
 
     def trains_on(self, i: int) -> bool:
         return self.shapes[i].is_scribbled
+
+    def use(self, model: TrainedModel) -> None:
+        """Nothing: the patch energy has no learned term besides the network."""
 
     def initial_labels(self) -> list[np.ndarray | None]:
         self.y = [None if U is None else alpha_expansion(U, s.patch_pairs, w)

@@ -26,7 +26,8 @@ def predict_shape(model: TrainedModel, shape: ShapeData, log_proba: np.ndarray |
 
     ``method="face"``: the face energy's graph cut with the network's log-probabilities
     (:class:`~scribbleseg_core.engine.propagate.FaceEnergy`), the shape's scribbles, if any,
-    hard. ``method="paper"``: the patch-level cut of eq. 1–4 with the collection's patch
+    hard; on a shape without scribbles the smoothness is the model's learned boundary term
+    (:mod:`~scribbleseg_core.engine.boundary`). ``method="paper"``: the patch-level cut of eq. 1–4 with the collection's patch
     descriptors.
 
     Parameters
@@ -45,7 +46,8 @@ def predict_shape(model: TrainedModel, shape: ShapeData, log_proba: np.ndarray |
     params = model.params
     logp = model.log_proba(shape) if log_proba is None else log_proba
     if params.method == "face":
-        return FaceEnergy(shape.graph, shape.scribble, k, params.propagation, shape.sdf).cut(logp)
+        boundary = None if shape.is_scribbled else model.boundary_proba(shape)
+        return FaceEnergy(shape.graph, shape.scribble, k, params.propagation, shape.sdf, boundary).cut(logp)
     D = model.encoder.encode(shape.X, shape.area, shape.patch)
     w = feature_weights(D, shape.patch_pairs, model.delta, params.lam)
     U = network_unary(shape.patch_matrix(), logp) + scribble_unary(shape.patch, shape.scribble, np.arange(k), k)

@@ -65,6 +65,11 @@ class PropagateParams:
         How much a convex crease (a ridge) counts against a concave one (a valley) in the
         smoothness and the walk (:meth:`DualGraph.concavity`); the crease-aware distance
         keeps :data:`~scribbleseg_core.geometry.dual_graph.CONVEX_FACTOR`. Default 0.02.
+    boundary : float
+        On a shape without scribbles, given the learned boundary probabilities P_b of its
+        edges (:mod:`~scribbleseg_core.engine.boundary`): the smoothness of an edge is
+        ``boundary · (ℓ / mean ℓ) · −log max(P_b, 1e-4)`` in place of the crease rule and the
+        contrast. 0 turns it off (the engine then trains no boundary classifier). Default 16.
     """
 
     distance: float = 0.1
@@ -75,6 +80,7 @@ class PropagateParams:
     contrast: float = 1.0
     walk: float = 1.0
     convex: float = 0.02
+    boundary: float = 16.0
 
 
 def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int) -> np.ndarray:
@@ -120,10 +126,15 @@ class FaceEnergy:
     params : PropagateParams
     sdf : (m,) float ndarray, optional
         Shape diameter per face, for ``params.contrast`` (ignored when that is 0).
+    boundary_proba : (q,) float ndarray, optional
+        Learned probability of a label boundary across each face pair of `graph`
+        (:class:`~scribbleseg_core.engine.boundary.BoundaryClassifier`); on a shape without
+        scribbles it sets the smoothness (``params.boundary``). Ignored on a scribbled shape,
+        whose strokes and creases say where its parts meet.
     """
 
     def __init__(self, graph: DualGraph, scribble: np.ndarray, k: int, params: PropagateParams = PropagateParams(),
-                 sdf: np.ndarray | None = None):
+                 sdf: np.ndarray | None = None, boundary_proba: np.ndarray | None = None):
         scribble = np.asarray(scribble, dtype=np.int64)
         if scribble.shape != (graph.num_faces,):
             raise ValueError(f"scribble has shape {scribble.shape}, expected ({graph.num_faces},)")
@@ -132,11 +143,14 @@ class FaceEnergy:
         self.graph, self.scribble, self.k, self.params = graph, scribble, k, params
         self.pairs = graph.pairs
         self.strokes = np.flatnonzero(scribble >= 0)
-        smoothness = params.smoothness if self.strokes.size else params.smoothness_unscribbled
-        w = graph.crease_potts_weights(smoothness, params.crease, params.convex)
-        if params.contrast > 0 and sdf is not None:
-            w = w * contrast_factor(graph, sdf, params.contrast, CONTRAST_FLOOR)
-        self.weights = w
+        if boundary_proba is not None and params.boundary > 0 and not self.strokes.size:
+            self.weights = learned_weights(graph, boundary_proba, params.boundary)
+        else:
+            smoothness = params.smoothness if self.strokes.size else params.smoothness_unscribbled
+            w = graph.crease_potts_weights(smoothness, params.crease, params.convex)
+            if params.contrast > 0 and sdf is not None:
+                w = w * contrast_factor(graph, sdf, params.contrast, CONTRAST_FLOOR)
+            self.weights = w
         self._walk = None
         m = graph.num_faces
         if self.strokes.size == 0:
@@ -300,6 +314,15 @@ def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, cr
     rhs = -(Lu[:, s] @ P[np.ix_(s, present)])
     P[np.ix_(u, present)] = sla.splu(Lu[:, u].tocsc()).solve(np.ascontiguousarray(rhs))
     return np.clip(P, 0.0, 1.0)
+
+
+def learned_weights(graph: DualGraph, boundary_proba: np.ndarray, weight: float) -> np.ndarray:
+    """Potts weights ``weight · (ℓ / mean ℓ) · −log max(P_b, 1e-4)`` of the face pairs of
+    `graph` from their boundary probabilities P_b (q,); (q,) float64."""
+    p = np.asarray(boundary_proba, dtype=np.float64)
+    if p.shape != (len(graph.pairs),):
+        raise ValueError(f"boundary_proba has shape {p.shape}, expected ({len(graph.pairs)},)")
+    return weight * (graph.length / max(pair_mean(graph.length), 1e-300)) * -np.log(np.clip(p, 1e-4, 1.0))
 
 
 def contrast_factor(graph: DualGraph, values: np.ndarray, contrast: float, floor: float) -> np.ndarray:

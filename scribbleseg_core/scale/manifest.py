@@ -24,7 +24,7 @@ from scribbleseg_core.scale.inputs import Source
 
 MANIFEST_NAME = "manifest.jsonl"
 #: The files of a model folder that decide its predictions (:mod:`scribbleseg_core.store.model_file`).
-MODEL_FILES = ("model.json", "weights.pt", "arrays.npz")
+MODEL_FILES = ("model.json", "weights.pt", "arrays.npz", "boundary.txt")
 
 
 def job_fingerprint(model_folder: str | os.PathLike, settings: dict) -> str:

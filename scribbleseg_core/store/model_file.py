@@ -1,12 +1,12 @@
 """Save and load trained models as plain files that cannot execute code on load.
 
-A model folder holds three files:
+A model folder holds three files, and a fourth with a boundary classifier:
 
 ``model.json``
     The schema, version :data:`VERSION`::
 
         format          "scribbleseg-model"
-        version         4
+        version         5
         scribbleseg     the package version that wrote it (informational)
         feature_version the per-face signatures' definition it was trained on
         label_names     k names
@@ -18,6 +18,7 @@ A model folder holds three files:
                         shapes (and of the app's preview)
         patches         {"bins", "smooth", "delta"}, method "paper" only (else null): the
                         patch descriptors and the feature term
+        boundary        {"num_inputs"} of the learned boundary term, or null without one
 
     Nothing else is read: training-only settings are not stored.
 ``weights.pt``
@@ -27,6 +28,9 @@ A model folder holds three files:
     Input standardization of each stage (``mean``, ``std``; ``context_mean``,
     ``context_std``) and, method "paper" only, the patch encoder's ranges and codebook; read
     with ``allow_pickle=False``.
+``boundary.txt``
+    The learned boundary term (:class:`~scribbleseg_core.engine.boundary.BoundaryClassifier`):
+    LightGBM's text model, parsed, never executed.
 
 Any change to what prediction needs bumps :data:`VERSION`; files of another version are
 refused with both versions named (retrain to get a current file).
@@ -43,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from scribbleseg_core import __version__
+from scribbleseg_core.engine.boundary import BoundaryClassifier
 from scribbleseg_core.engine.learner import Learner
 from scribbleseg_core.engine.network import FaceClassifier, NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams, TrainedModel
@@ -55,7 +60,7 @@ from scribbleseg_core.signatures.features import FEATURE_VERSION
 
 FORMAT = "scribbleseg-model"
 #: The schema version this scribbleseg writes and reads.
-VERSION = 4
+VERSION = 5
 
 
 def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
@@ -86,7 +91,10 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
         "label_context": second is not None,
         "prediction": {"method": p.method, "propagation": dataclasses.asdict(p.propagation), "lam": p.lam},
         "patches": None if enc is None else {"bins": enc.bins, "smooth": enc.smooth, "delta": model.delta},
+        "boundary": None if model.boundary is None else {"num_inputs": model.boundary.num_inputs},
     }
+    if model.boundary is not None:
+        atomic_write_text(folder / "boundary.txt", model.boundary.to_text())
     atomic_write_bytes(folder / "weights.pt", buf.getvalue())
     atomic_write_bytes(folder / "arrays.npz", arrays.getvalue())
     atomic_write_text(folder / "model.json", json.dumps(meta, indent=1) + "\n")
@@ -122,7 +130,8 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
             f"trained on labels {list(names)}, but this collection uses {list(expected_labels)}", folder
         )
     try:
-        net, inputs, pred, patches = (meta[key] for key in ("network", "inputs", "prediction", "patches"))
+        net, inputs, pred, patches, edges = (meta[key] for key in ("network", "inputs", "prediction", "patches",
+                                                                    "boundary"))
         network = dataclasses.replace(NetworkParams(), hidden=tuple(net["hidden"]), dropout=float(net["dropout"]))
         params = SegmentParams(
             method=pred["method"],
@@ -146,6 +155,12 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         encoder = None
         if params.method == "paper":
             encoder = PatchEncoder(arr["lo"], arr["hi"], arr["hks_mean"], arr["hks_std"], arr["codebook"], bins, smooth)
+        boundary = None
+        if edges is not None:
+            boundary = BoundaryClassifier.from_text((folder / "boundary.txt").read_text(encoding="utf-8"))
+            if boundary.num_inputs != int(edges["num_inputs"]):
+                raise ValueError(f"boundary.txt reads {boundary.num_inputs} values per edge, model.json says "
+                                 f"{edges['num_inputs']}")
     except FileNotFoundError as e:
         raise ModelFileError(f"incomplete model: {Path(e.filename).name} is missing", folder) from None
     except Exception as e:  # wrong shapes, a pickle, truncated files: all "not a model of ours"
@@ -154,7 +169,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
     clf = learner.stage1
     if clf.num_inputs != expected or clf.mean.shape != (expected,):
         raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
-    return TrainedModel(learner, names, params, encoder, delta if encoder is not None else None)
+    return TrainedModel(learner, names, params, encoder, delta if encoder is not None else None, boundary=boundary)
 
 
 def _read_meta(folder: Path) -> dict:

@@ -67,12 +67,16 @@ def test_scribbled_faces_keep_their_label(collection, paper):
 
 def test_each_snapshot_carries_the_energy_of_its_labels(collection):
     """The snapshot's energy is the face energy of the labels it shows, under its network
-    (without cross-fitting, the model is the whole network term)."""
+    (without cross-fitting, the model is the whole network term) and, on shapes without
+    scribbles, its learned boundary term."""
     shapes, _, _ = collection
+    assert not all(s.is_scribbled for s in shapes)
     params = dataclasses.replace(PARAMS, cross_fit=0.0)
     snaps = list(segment_collection(shapes, LABELS, params))
     k = len(LABELS)
-    energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes]
+    model = snaps[-1].model
+    assert model.boundary is not None
+    energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf, model.boundary_proba(s)) for s in shapes]
     for snap in snaps[1:-1]:
         logp = [snap.model.log_proba(s) for s in shapes]
         terms = [e.terms(lab, lp) for e, lab, lp in zip(energies, snap.labels, logp) if (lab >= 0).any()]
@@ -214,6 +218,7 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     np.testing.assert_array_equal(predict_shape(back, shapes[3]), predict_shape(model, shapes[3]))
     assert back.learner.stage2 is not None and back.params.label_context
     np.testing.assert_allclose(back.log_proba(shapes[3]), model.log_proba(shapes[3]), atol=1e-6)  # no dropout noise
+    np.testing.assert_allclose(back.boundary_proba(shapes[3]), model.boundary_proba(shapes[3]), atol=1e-9)
     with pytest.raises(ModelFileError, match="trained on labels"):
         load_model(tmp_path / "m", expected_labels=("a", "b"))
     import json
@@ -222,8 +227,8 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
 
     meta_path = tmp_path / "m" / "model.json"
     meta = json.loads(meta_path.read_text())
-    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 4"),
-                             (3, "model format version 3, written by scribbleseg .*, older than the version 4")]:
+    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 5"),
+                             (4, "model format version 4, written by scribbleseg .*, older than the version 5")]:
         meta_path.write_text(json.dumps({**meta, "version": version}))
         with pytest.raises(ModelFileError, match=message) as refused:
             load_model(tmp_path / "m")
@@ -248,6 +253,15 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     with pytest.raises(ModelFileError, match="does not hold the stages"):
         load_model(tmp_path / "m")
     (tmp_path / "m" / "model.json").write_text(json.dumps(meta))
+    # the boundary classifier: missing, or not LightGBM's text, is refused with the file named
+    text = (tmp_path / "m" / "boundary.txt").read_text()
+    (tmp_path / "m" / "boundary.txt").unlink()
+    with pytest.raises(ModelFileError, match="incomplete model: boundary.txt is missing"):
+        load_model(tmp_path / "m")
+    (tmp_path / "m" / "boundary.txt").write_text("tree\nversion=v4\nnum_class=1\ngarbage")
+    with pytest.raises(ModelFileError, match="corrupt or foreign"):
+        load_model(tmp_path / "m")
+    (tmp_path / "m" / "boundary.txt").write_text(text)
     # a pickle with code in place of the weights is refused, not executed
     torch.save({"weights": object()}, tmp_path / "m" / "weights.pt")
     with pytest.raises(ModelFileError, match="corrupt or foreign"):

@@ -226,3 +226,35 @@ def test_no_term_is_negative_on_a_fully_painted_shape(planted):
     scribble_term, network_term, smooth = energy.terms(labels, logp)
     assert scribble_term >= 0 and network_term == 0.0 and smooth > 0
     np.testing.assert_allclose(scribble_term + network_term + smooth, sum(energy.terms(gt, logp)))
+
+
+def test_learned_boundary_moves_the_cut_of_an_unscribbled_shape_to_where_it_is_likely():
+    """A shape without scribbles takes its smoothness from the boundary probabilities, so an
+    uncertain network's boundary moves to where the classifier puts one; a scribbled shape
+    keeps the crease rule."""
+    from scribbleseg_core.engine.propagate import FaceEnergy, learned_weights
+
+    V, F, x = _strip()
+    graph = dual_graph(V, F)
+    i, j = graph.pairs.T
+    xi, xj = x[i], x[j]
+    # the network: label 0 left of x = 20, label 1 right of it, hardly sure within 10 of it
+    p1 = np.clip(0.5 + (x - 20) / 40, 0.02, 0.98)
+    logp = np.log(np.column_stack([1 - p1, p1]))
+    across = (np.minimum(xi, xj) < 14) & (np.maximum(xi, xj) > 14)  # the edges across x = 14
+    proba = np.where(across, 0.9, 0.01)
+    none = np.full(graph.num_faces, -1)
+    plain = FaceEnergy(graph, none, 2).cut(logp)
+    assert (plain[(x > 15) & (x < 19)] == 0).all()  # the crease-free rule: at the network's 0.5
+    learned = FaceEnergy(graph, none, 2, boundary_proba=proba).cut(logp)
+    assert (learned[x < 14] == 0).all() and (learned[x > 14] == 1).all()
+    np.testing.assert_allclose(FaceEnergy(graph, none, 2, PropagateParams(boundary=3.0), boundary_proba=proba).weights,
+                               learned_weights(graph, proba, 3.0))
+    off = FaceEnergy(graph, none, 2, PropagateParams(boundary=0.0), boundary_proba=proba)
+    np.testing.assert_allclose(off.weights, FaceEnergy(graph, none, 2).weights)  # 0: the crease rule
+    painted = none.copy()
+    painted[0] = 0
+    np.testing.assert_allclose(FaceEnergy(graph, painted, 2, boundary_proba=proba).weights,
+                               FaceEnergy(graph, painted, 2).weights)
+    with pytest.raises(ValueError, match="boundary_proba has shape"):
+        FaceEnergy(graph, none, 2, boundary_proba=proba[:-1])
