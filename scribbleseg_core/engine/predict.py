@@ -27,8 +27,8 @@ def predict_shape(model: TrainedModel, shape: ShapeData, log_proba: np.ndarray |
     ``method="face"``: the face energy's graph cut with the network's log-probabilities
     (:class:`~scribbleseg_core.engine.propagate.FaceEnergy`), the shape's scribbles, if any,
     hard; on a shape without scribbles the smoothness is the model's learned boundary term
-    (:mod:`~scribbleseg_core.engine.boundary`). ``method="paper"``: the patch-level cut of eq. 1–4 with the collection's patch
-    descriptors.
+    (:mod:`~scribbleseg_core.engine.boundary`). ``method="paper"``: the patch-level cut of
+    eq. 1–4 with the collection's patch descriptors.
 
     Parameters
     ----------

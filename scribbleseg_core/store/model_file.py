@@ -95,6 +95,8 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
     }
     if model.boundary is not None:
         atomic_write_text(folder / "boundary.txt", model.boundary.to_text())
+    else:
+        (folder / "boundary.txt").unlink(missing_ok=True)  # an earlier model's, over which this one is saved
     atomic_write_bytes(folder / "weights.pt", buf.getvalue())
     atomic_write_bytes(folder / "arrays.npz", arrays.getvalue())
     atomic_write_text(folder / "model.json", json.dumps(meta, indent=1) + "\n")

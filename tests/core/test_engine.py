@@ -281,6 +281,12 @@ def test_paper_model_round_trip(tmp_path, collection, paper):
     assert back.params.method == "paper" and back.delta == model.delta
     np.testing.assert_array_equal(back.encoder.codebook, model.encoder.codebook)
     np.testing.assert_array_equal(predict_shape(back, shapes[3]), predict_shape(model, shapes[3]))
+    assert model.boundary is None and not (tmp_path / "p" / "boundary.txt").exists()
+    # saved over a face model's folder, the other model's boundary term goes with it
+    save_model(tmp_path / "f", collection[2][-1].model)
+    assert (tmp_path / "f" / "boundary.txt").is_file()
+    save_model(tmp_path / "f", model)
+    assert not (tmp_path / "f" / "boundary.txt").exists() and load_model(tmp_path / "f").boundary is None
 
 
 def test_scribble_unary_follows_eq1():
