@@ -295,6 +295,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     if warm is not None and _continues(warm, net.main, problem.label_names, params):
         net.continue_from(warm, params.network.threads)
     model, logp, best, it = None, None, np.inf, 0
+    trained_on = None  # the labels the kept networks were trained on
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
         previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
@@ -308,7 +309,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
             net = previous  # training did not lower E: keep the learner that made these labels
             problem.use(model)
             break
-        logp, energy, model = new_logp, e_train, new_model
+        logp, energy, model, trained_on = new_logp, e_train, new_model, labels
         yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
                        model)
         t = time.perf_counter()
@@ -320,6 +321,9 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         best = min(best, energy.total)
         if converged:
             break
+    if not net.cuts_need_boundary and trained_on is not None:
+        net.fit_boundary(trained_on)  # every shape is painted: only new shapes will use it
+        model = net.model(problem)
     yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t0,
                    model or net.model(problem), tuple(net.held_out_log_proba(inputs)))
 
@@ -393,13 +397,25 @@ class _Networks:
         if len(warm.halves) == len(self.halves):
             self.halves = [copy.deepcopy(h.with_threads(threads)) for h in warm.halves]
 
+    @property
+    def cuts_need_boundary(self) -> bool:
+        """Whether a shape without scribbles takes part, so that every round's cut needs the
+        boundary classifier; otherwise only the final model does (:meth:`fit_boundary` once)."""
+        return self.edges_of is not None and not all(self.mixed)
+
+    def fit_boundary(self, labels) -> None:
+        """Train the boundary classifier afresh on the scribbled shapes' `labels`."""
+        if self.edges_of is None:
+            return
+        taught = (self.edges_of(i, lab) for i, lab in enumerate(labels) if lab is not None and self.mixed[i])
+        self.boundary = BoundaryClassifier.fit(taught, seed=self.params.seed, threads=self.params.threads)
+
     def fit(self, inputs, labels) -> None:
         """Train on every shape with labels and inputs, warm when trained before; the boundary
-        classifier on the scribbled shapes' labels, afresh."""
+        classifier on the scribbled shapes' labels, afresh, when the cuts need it."""
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
-        if self.edges_of is not None:
-            taught = (self.edges_of(i, labels[i]) for i in usable if self.mixed[i])
-            self.boundary = BoundaryClassifier.fit(taught, seed=self.params.seed, threads=self.params.threads)
+        if self.cuts_need_boundary:
+            self.fit_boundary(labels)
         first = self.main.stage1
         first.fit([inputs[i] for i in usable], [labels[i] for i in usable], warm=first.trained)
         for f, half in enumerate(self.halves):

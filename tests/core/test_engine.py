@@ -74,10 +74,10 @@ def test_each_snapshot_carries_the_energy_of_its_labels(collection):
     params = dataclasses.replace(PARAMS, cross_fit=0.0)
     snaps = list(segment_collection(shapes, LABELS, params))
     k = len(LABELS)
-    model = snaps[-1].model
-    assert model.boundary is not None
-    energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf, model.boundary_proba(s)) for s in shapes]
+    assert snaps[-1].model.boundary is not None
     for snap in snaps[1:-1]:
+        energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf, snap.model.boundary_proba(s))
+                    for s in shapes]
         logp = [snap.model.log_proba(s) for s in shapes]
         terms = [e.terms(lab, lp) for e, lab, lp in zip(energies, snap.labels, logp) if (lab >= 0).any()]
         np.testing.assert_allclose(sum(sum(t) for t in terms), snap.energy.total, rtol=1e-6)
@@ -208,6 +208,22 @@ def test_no_scribbles_at_all_is_refused(collection):
     shapes, _, _ = collection
     with pytest.raises(ValueError, match="no shape has scribbles"):
         next(segment_collection([shapes[3]], LABELS, PARAMS))
+
+
+def test_with_every_shape_painted_the_boundary_term_is_trained_once_for_new_shapes(collection):
+    """No cut of a painted collection uses the boundary term, so it is trained once, at the
+    end, on the labels the kept networks learned from; new shapes are cut with it."""
+    shapes, gts, _ = collection
+    painted = [s for s in shapes if s.is_scribbled]
+    snaps = list(segment_collection(painted, LABELS, dataclasses.replace(PARAMS, rounds=2)))
+    assert all(s.model.boundary is None for s in snaps[1:-1])
+    final = snaps[-1].model
+    assert final.boundary is not None
+    held = shapes[3]
+    p = final.boundary_proba(held)
+    truth = gts[3][held.mesh.proc_to_file]
+    across = truth[held.graph.pairs[:, 0]] != truth[held.graph.pairs[:, 1]]
+    assert p[across].mean() > 3 * p[~across].mean()
 
 
 def test_model_round_trip_and_refusals(tmp_path, collection):
