@@ -322,7 +322,7 @@ def learned_weights(graph: DualGraph, boundary_proba: np.ndarray, weight: float)
     p = np.asarray(boundary_proba, dtype=np.float64)
     if p.shape != (len(graph.pairs),):
         raise ValueError(f"boundary_proba has shape {p.shape}, expected ({len(graph.pairs)},)")
-    return weight * (graph.length / max(pair_mean(graph.length), 1e-300)) * -np.log(np.clip(p, 1e-4, 1.0))
+    return weight * graph.relative_length * -np.log(np.clip(p, 1e-4, 1.0))
 
 
 def contrast_factor(graph: DualGraph, values: np.ndarray, contrast: float, floor: float) -> np.ndarray:

@@ -59,8 +59,12 @@ class DualGraph:
         """Potts weight per face pair, ``smoothness · (ℓ / mean ℓ) · exp(−concavity /
         crease)`` with the :meth:`concavity` at factor `convex`: cutting along a concave
         crease is cheap, across a smooth or convex region dear; (q,) float64."""
-        ell = self.length / max(pair_mean(self.length), 1e-300)
-        return smoothness * ell * np.exp(-self.concavity(convex) / crease)
+        return smoothness * self.relative_length * np.exp(-self.concavity(convex) / crease)
+
+    @cached_property
+    def relative_length(self) -> np.ndarray:
+        """``ℓ / mean ℓ`` per face pair, (q,) float64: the length factor of every Potts weight."""
+        return self.length / max(pair_mean(self.length), 1e-300)
 
     @cached_property
     def crease_matrix(self) -> sp.csr_matrix:
