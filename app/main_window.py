@@ -104,14 +104,14 @@ class MainWindow(QMainWindow):
             autosave_dir = default_state_dir() / "autosave"
         self.model = m = CollectionModel(autosave_dir)
         self.dispatcher = QtDispatcher(self)
-        self.frames = FrameClock()
+        self.previews = PreviewController(m, self.dispatcher)
+        self.frames = FrameClock(waiting=lambda: not self.previews.idle)
         self.toolbox = ToolsController(m, self.dispatcher)
         self._viewport = None
         if viewport is not None:
             self._attach(viewport)
         self.view = ViewController(m, self.dispatcher, lambda: self.viewport)
         self.runs = RunController(m, self.dispatcher)
-        self.previews = PreviewController(m, self.dispatcher)
         self.files = FilesController(m, self.dispatcher)
         self.shapes = ShapesPanel(m, self.runs)
         self.labels = LabelsPanel(m, self.view)
@@ -567,9 +567,7 @@ class MainWindow(QMainWindow):
     def _on_tick(self) -> None:
         if self._viewport is None or not self.frames.due():
             return
-        if self._viewport.tick():
-            self.frames.wake()  # the user is acting in the viewport: full rate
-        self.frames.rendered()
+        self.frames.rendered(acting=self._viewport.tick())
         if self._viewport.close_requested:  # closing the viewport window quits the app
             self.timer.stop()
             self.keep_unsaved_work(can_cancel=False)  # polyscope cannot take the close back

@@ -19,7 +19,13 @@ import numpy as np
 from scribbleseg_app.controllers.jobs import Dispatcher
 from scribbleseg_app.events import Event
 
-from scribbleseg_core.engine.propagate import PropagateParams, propagate_scribbles
+from scribbleseg_core.engine.graphcut import graph_clusters
+from scribbleseg_core.engine.propagate import (
+    CLUSTER_SIZE,
+    PropagateParams,
+    propagate_scribbles,
+    scribble_distances,
+)
 from scribbleseg_core.engine.shape import ShapeData
 from scribbleseg_core.formats.mesh import Mesh
 from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
@@ -63,17 +69,20 @@ class PreviewResult:
 
 
 class PreviewEngine:
-    """Computes previews; keeps the dual graph, network input and SDF of the last
-    :data:`KEEP` meshes (costly once per mesh)."""
+    """Computes previews by a multilevel graph cut (:meth:`FaceEnergy.cut` with clusters);
+    keeps the dual graph, its face clusters, network input and SDF of the last :data:`KEEP`
+    meshes (costly once per mesh), and each one's previous preview and scribble distances
+    (one more stroke starts from them)."""
 
     #: Meshes whose costly parts are kept; older ones are released.
     KEEP = 4
 
     def __init__(self) -> None:
-        self._graphs: OrderedDict[int, tuple[Mesh, DualGraph]] = OrderedDict()
+        self._graphs: OrderedDict[int, tuple[Mesh, DualGraph, np.ndarray]] = OrderedDict()  # with face clusters
         self._shapes: OrderedDict[int, ShapeData] = OrderedDict()  # with their network inputs and geodesics
         self._sdf: OrderedDict[int, tuple[Mesh, np.ndarray]] = OrderedDict()
-        self._last: OrderedDict[int, tuple[Mesh, int, np.ndarray]] = OrderedDict()  # the previous preview (warm start)
+        # the previous preview: (mesh, num_labels, labels, scribble, scribble distances)
+        self._last: OrderedDict[int, tuple[Mesh, int, np.ndarray, np.ndarray, np.ndarray]] = OrderedDict()
 
     def _keep(self, cache: OrderedDict, key: int) -> None:
         cache.move_to_end(key)
@@ -85,11 +94,15 @@ class PreviewEngine:
         return len(set(self._graphs) | set(self._shapes) | set(self._sdf) | set(self._last))
 
     def graph(self, mesh: Mesh) -> DualGraph:
+        return self._graph(mesh)[1]
+
+    def _graph(self, mesh: Mesh) -> tuple[Mesh, DualGraph, np.ndarray]:
         key = id(mesh)
         if key not in self._graphs or self._graphs[key][0] is not mesh:
-            self._graphs[key] = (mesh, dual_graph(mesh.normalized(), mesh.F))
+            graph = dual_graph(mesh.normalized(), mesh.F)
+            self._graphs[key] = (mesh, graph, graph_clusters(graph.crease_matrix, CLUSTER_SIZE))
         self._keep(self._graphs, key)
-        return self._graphs[key][1]
+        return self._graphs[key]
 
     def log_proba(self, mesh: Mesh, model) -> np.ndarray:
         """The model's face log-probabilities; features and context come from the disk
@@ -107,7 +120,8 @@ class PreviewEngine:
 
     def compute(self, req: PreviewRequest) -> np.ndarray | None:
         """(m0,) file-face labels, or None when the shape has no scribbles. The graph cut
-        starts from the shape's previous preview, so one more stroke converges in fewer moves."""
+        starts from the shape's previous preview, so one more stroke converges in fewer
+        moves, and only the labels whose strokes changed get new scribble distances."""
         mesh = req.mesh
         scribble = np.asarray(req.file_scribble, dtype=np.int64)[mesh.proc_to_file]
         if not (scribble >= 0).any():
@@ -115,12 +129,15 @@ class PreviewEngine:
         logp = self.log_proba(mesh, req.model) if req.model is not None else None
         params = req.model.params.propagation if req.model is not None else PropagateParams()
         sdf = self.sdf(mesh) if params.contrast > 0 else None
-        key = id(mesh)
+        key, k = id(mesh), req.num_labels
+        _, graph, clusters = self._graph(mesh)
         last = self._last.get(key)
-        init = last[2] if last is not None and last[0] is mesh and last[1] == req.num_labels else None
-        labels = propagate_scribbles(self.graph(mesh), scribble, req.num_labels, log_proba=logp, sdf=sdf, params=params,
-                                     init=init)
-        self._last[key] = (mesh, req.num_labels, labels)
+        if last is None or last[0] is not mesh or last[1] != k:
+            last = None
+        D = scribble_distances(graph, scribble, k, previous=None if last is None else (last[3], last[4]))
+        labels = propagate_scribbles(graph, scribble, k, log_proba=logp, sdf=sdf, params=params,
+                                     init=None if last is None else last[2], clusters=clusters, distances=D)
+        self._last[key] = (mesh, k, labels, scribble, D)
         self._keep(self._last, key)
         return mesh.labels_to_file(labels)
 

@@ -17,11 +17,13 @@ import numpy as np
 import scipy.sparse.linalg as sla
 from scipy.sparse.csgraph import connected_components, dijkstra
 
-from scribbleseg_core.engine.graphcut import INF, alpha_expansion
+from scribbleseg_core.engine.graphcut import INF, alpha_expansion, multilevel_alpha_expansion
 from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph, pair_mean
 
 #: Alpha-expansion sweeps at most per cut (each sweep tries every label once).
 MAX_SWEEPS = 4
+#: Faces per cluster and band width (in face rings) of the multilevel cut (the app's preview).
+CLUSTER_SIZE, BAND = 6, 4
 #: The smallest factor the SDF contrast applies to an edge's smoothness.
 CONTRAST_FLOOR = 0.5
 
@@ -83,7 +85,8 @@ class PropagateParams:
     boundary: float = 16.0
 
 
-def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int) -> np.ndarray:
+def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int,
+                       previous: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Crease-aware geodesic distance of every face to the scribbles of every label.
 
     Parameters
@@ -93,6 +96,10 @@ def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int) -> np.nda
         Label per face, -1 where unscribbled.
     k : int
         Number of labels.
+    previous : (scribble, D), optional
+        An earlier call's scribbles and result on the same graph with the same `k`: the
+        columns of labels whose faces did not change are reused (one more stroke costs one
+        label's distances).
 
     Returns
     -------
@@ -101,8 +108,15 @@ def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int) -> np.nda
     """
     scribble = np.asarray(scribble)
     D = np.full((graph.num_faces, k), np.inf)
+    if previous is not None and (previous[0].shape != scribble.shape or previous[1].shape != D.shape):
+        previous = None
+    changed = None if previous is None else previous[0] != scribble
     for label in np.unique(scribble[scribble >= 0]):
-        D[:, label] = dijkstra(graph.crease_matrix, directed=False, indices=np.flatnonzero(scribble == label), min_only=True)
+        faces = scribble == label
+        if changed is not None and not (changed & (faces | (previous[0] == label))).any():
+            D[:, label] = previous[1][:, label]
+            continue
+        D[:, label] = dijkstra(graph.crease_matrix, directed=False, indices=np.flatnonzero(faces), min_only=True)
     return D
 
 
@@ -131,10 +145,13 @@ class FaceEnergy:
         (:class:`~scribbleseg_core.engine.boundary.BoundaryClassifier`); on a shape without
         scribbles it sets the smoothness (``params.boundary``). Ignored on a scribbled shape,
         whose strokes and creases say where its parts meet.
+    distances : (m, k) float ndarray, optional
+        :func:`scribble_distances` of `scribble`, when the caller has them.
     """
 
     def __init__(self, graph: DualGraph, scribble: np.ndarray, k: int, params: PropagateParams = PropagateParams(),
-                 sdf: np.ndarray | None = None, boundary_proba: np.ndarray | None = None):
+                 sdf: np.ndarray | None = None, boundary_proba: np.ndarray | None = None,
+                 distances: np.ndarray | None = None):
         scribble = np.asarray(scribble, dtype=np.int64)
         if scribble.shape != (graph.num_faces,):
             raise ValueError(f"scribble has shape {scribble.shape}, expected ({graph.num_faces},)")
@@ -158,7 +175,9 @@ class FaceEnergy:
             self._distance = np.zeros((m, k))
             self._scribbled_labels = np.ones(k, bool)
             return
-        D = scribble_distances(graph, scribble, k)
+        D = scribble_distances(graph, scribble, k) if distances is None else distances
+        if D.shape != (m, k):
+            raise ValueError(f"distances has shape {D.shape}, expected ({m}, {k})")
         nearest = D.min(axis=1)
         self.reached = np.isfinite(nearest)
         scale = max(float(np.median(nearest[self.reached])), 1e-12)
@@ -199,10 +218,17 @@ class FaceEnergy:
         U[s, self.scribble[s]] = 0.0
         return U
 
-    def cut(self, log_proba: np.ndarray | None = None, init: np.ndarray | None = None) -> np.ndarray:
+    def cut(self, log_proba: np.ndarray | None = None, init: np.ndarray | None = None,
+            clusters: np.ndarray | None = None) -> np.ndarray:
         """Labels minimizing the energy by alpha-expansion, (m,) int64; starts from `init`
-        when given (the energy never rises above it), else from the unary argmin."""
+        when given (the energy never rises above it), else from the unary argmin. With
+        `clusters` ((m,) int, :func:`~scribbleseg_core.engine.graphcut.graph_clusters`) the
+        cut is multilevel (:func:`~scribbleseg_core.engine.graphcut.multilevel_alpha_expansion`):
+        several times faster on large meshes, for an energy about 1% higher."""
         U = self.unary(log_proba)
+        if clusters is not None:
+            return multilevel_alpha_expansion(U, self.pairs, self.weights, clusters, init=init, band=BAND,
+                                              max_sweeps=MAX_SWEEPS)
         start = np.argmin(U, axis=1) if init is None else init
         return alpha_expansion(U, self.pairs, self.weights, init=start, max_sweeps=MAX_SWEEPS)
 
@@ -232,6 +258,8 @@ def propagate_scribbles(
     sdf: np.ndarray | None = None,
     params: PropagateParams = PropagateParams(),
     init: np.ndarray | None = None,
+    clusters: np.ndarray | None = None,
+    distances: np.ndarray | None = None,
 ) -> np.ndarray:
     """Label every face from the scribbles (and a network's log-probabilities): the
     minimum of :class:`FaceEnergy`.
@@ -251,6 +279,10 @@ def propagate_scribbles(
     init : (m,) int ndarray, optional
         Labels to start the graph cut from (e.g. the previous result after one more stroke:
         it converges in fewer moves); default the unary argmin.
+    clusters : (m,) int ndarray, optional
+        Face clusters for a multilevel cut (:meth:`FaceEnergy.cut`).
+    distances : (m, k) float ndarray, optional
+        :func:`scribble_distances` of `scribble`, when the caller has them.
 
     Returns
     -------
@@ -260,7 +292,7 @@ def propagate_scribbles(
     """
     if not (np.asarray(scribble) >= 0).any():
         raise ValueError("no face is scribbled")
-    return FaceEnergy(graph, scribble, k, params, sdf).cut(log_proba, init=init)
+    return FaceEnergy(graph, scribble, k, params, sdf, distances=distances).cut(log_proba, init=init, clusters=clusters)
 
 
 def propagate_shape(shape, k: int, params: PropagateParams = PropagateParams(),

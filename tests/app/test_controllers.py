@@ -290,6 +290,26 @@ def test_the_frame_clock_renders_on_change_and_slowly_when_idle():
     assert clock.due()
 
 
+def test_frames_give_way_to_a_preview_being_computed_unless_the_user_acts():
+    now, waiting = [0.0], [False]
+    clock = FrameClock(lambda: now[0], active_s=1.0, busy_interval=0.05, idle_interval=0.3, waiting=lambda: waiting[0])
+    clock.rendered()
+    clock.wake()  # a stroke was released: a change
+    waiting[0] = True  # and its preview is under way
+    now[0] = 0.02
+    assert not clock.due()  # a frame now would show nothing new
+    now[0] = 0.06
+    assert clock.due()  # but frames still come every busy interval
+    clock.rendered(acting=True)  # the user moves the mouse in the viewport
+    now[0] = 0.07
+    assert clock.due()  # full rate while they act
+    clock.rendered()
+    now[0] = 0.08
+    assert not clock.due()
+    waiting[0] = False  # the preview arrived
+    assert clock.due()  # full rate again: the change (and the input) are recent
+
+
 def _count(n, fail_at=None):
     """A generator function for a child process: 0 .. n-1, or an error at `fail_at`."""
     for i in range(n):

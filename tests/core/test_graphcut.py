@@ -1,4 +1,4 @@
-"""Alpha-expansion against brute force, and energy monotonicity."""
+"""Alpha-expansion against brute force, energy monotonicity, and the multilevel cut."""
 
 from __future__ import annotations
 
@@ -6,8 +6,16 @@ import itertools
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
-from scribbleseg_core.engine.graphcut import INF, alpha_expansion, potts_energy
+from scribbleseg_core.engine.graphcut import (
+    INF,
+    alpha_expansion,
+    graph_clusters,
+    multilevel_alpha_expansion,
+    potts_energy,
+)
 
 
 def _random_problem(rng, p, k, q):
@@ -82,3 +90,48 @@ def test_chain_propagates_from_fixed_ends():
     weights[6] = 0.1
     y = alpha_expansion(unary, edges, weights, init=np.zeros(p, int))
     np.testing.assert_array_equal(y, [0] * 7 + [1] * 3)
+
+
+def _grid(nx, ny):
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    edges = np.r_[np.c_[idx[:, :-1].ravel(), idx[:, 1:].ravel()], np.c_[idx[:-1].ravel(), idx[1:].ravel()]]
+    A = sp.coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(nx * ny,) * 2)
+    return idx, edges, (A + A.T).tocsr()
+
+
+def test_graph_clusters_are_connected_cells_of_about_the_size_asked():
+    idx, edges, A = _grid(40, 30)
+    clusters = graph_clusters(A, 8)
+    np.testing.assert_array_equal(clusters, graph_clusters(A, 8))  # deterministic
+    c = clusters.max() + 1
+    assert 1200 / 8 * 0.9 <= c <= 1200 / 8 + 1 and set(np.unique(clusters)) == set(range(c))
+    for cell in range(c):  # every cell is one connected piece of the grid
+        nodes = np.flatnonzero(clusters == cell)
+        assert connected_components(A[nodes][:, nodes], directed=False)[0] == 1
+    np.testing.assert_array_equal(graph_clusters(A, 1), np.arange(1200))
+
+
+def test_multilevel_expansion_finds_the_cut_and_keeps_hard_constraints():
+    # three labels on a 60x20 grid: noisy unaries whose truth is three vertical bands, and
+    # side by side in the middle band, pairs of nodes forced to labels 0 and 2
+    rng = np.random.default_rng(0)
+    idx, edges, A = _grid(60, 20)
+    truth = np.minimum(np.tile(np.arange(60) // 20, 20), 2)
+    unary = rng.random((1200, 3)) * 3  # alone, half the nodes would take a wrong label
+    unary[np.arange(1200), truth] -= 0.6
+    weights = np.full(len(edges), 1.0)
+    pinned, pin = idx[2::4, 28:30].ravel(), np.tile([0, 2], 5)
+    unary[pinned] = INF
+    unary[pinned, pin] = 0.0
+    truth[pinned] = pin
+    clusters = graph_clusters(A, 6)
+    full = alpha_expansion(unary, edges, weights)
+    multi = multilevel_alpha_expansion(unary, edges, weights, clusters)
+    np.testing.assert_array_equal(multi[pinned], pin)
+    assert (multi == truth).mean() >= 0.97
+    e_full, e_multi = potts_energy(full, unary, edges, weights), potts_energy(multi, unary, edges, weights)
+    assert e_multi <= e_full + 0.005 * abs(e_full)
+    again = multilevel_alpha_expansion(unary, edges, weights, clusters, init=multi)
+    assert potts_energy(again, unary, edges, weights) <= e_multi + 1e-9  # from a start, never worse
+    with pytest.raises(ValueError, match="clusters"):
+        multilevel_alpha_expansion(unary, edges, weights, clusters[:-1])

@@ -7,7 +7,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from scribbleseg_core.engine.graphcut import graph_clusters
 from scribbleseg_core.engine.propagate import (
+    CLUSTER_SIZE,
     PropagateParams,
     propagate_scribbles,
     random_walk_probabilities,
@@ -258,3 +260,25 @@ def test_learned_boundary_moves_the_cut_of_an_unscribbled_shape_to_where_it_is_l
                                FaceEnergy(graph, painted, 2).weights)
     with pytest.raises(ValueError, match="boundary_proba has shape"):
         FaceEnergy(graph, none, 2, boundary_proba=proba[:-1])
+
+
+def test_distances_from_a_previous_call_equal_fresh_ones(planted):
+    graph, gt, scribble = planted
+    k = len(LABELS)
+    first = np.where(np.isin(scribble, [0, 1]), scribble, -1)
+    D = scribble_distances(graph, first, k)
+    for step in (scribble, np.where(scribble == 2, -1, scribble), np.where(scribble == 1, 0, scribble)):
+        again = scribble_distances(graph, step, k, previous=(first, D))  # a stroke added, erased, relabeled
+        np.testing.assert_array_equal(again, scribble_distances(graph, step, k))
+        first, D = step, again
+    np.testing.assert_array_equal(scribble_distances(graph, scribble, k + 1, previous=(first, D)),
+                                  scribble_distances(graph, scribble, k + 1))  # another label count: recomputed
+
+
+def test_multilevel_cut_brings_the_parts_back_like_the_full_cut(planted):
+    graph, gt, scribble = planted
+    clusters = graph_clusters(graph.crease_matrix, CLUSTER_SIZE)
+    labels = propagate_scribbles(graph, scribble, len(LABELS), clusters=clusters)
+    assert (labels == gt).mean() >= 0.95
+    sel = scribble >= 0
+    np.testing.assert_array_equal(labels[sel], scribble[sel])
