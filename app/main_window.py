@@ -7,6 +7,7 @@ the frame timer and the hop of background results onto this thread.
 
 from __future__ import annotations
 
+import gc
 from pathlib import Path
 
 import numpy as np
@@ -63,9 +64,9 @@ class QtDispatcher(QObject, Dispatcher):
 
 
 def warm_imports() -> None:
-    """Import the engine's heavy modules now, on the main thread. Imported first inside a
-    worker, torch alone holds the interpreter for about a second, and the viewport freezes
-    mid-run."""
+    """Import the engine's heavy modules now, on the main thread, and freeze what they made
+    (``gc.freeze``). Imported first inside a worker, torch alone holds the interpreter for
+    about a second, and the viewport freezes mid-run."""
     import maxflow  # noqa: F401
     import potpourri3d  # noqa: F401
     import scipy.sparse.linalg  # noqa: F401
@@ -73,6 +74,10 @@ def warm_imports() -> None:
 
     import scribbleseg_core.engine.optimize  # noqa: F401
     import scribbleseg_core.engine.pipeline  # noqa: F401
+
+    # What the imports made lives as long as the app: out of the collector's reach, a full
+    # collection no longer walks it (it took 150 ms, a stalled frame, at random moments).
+    gc.freeze()
 
 
 class MainWindow(QMainWindow):
@@ -567,7 +572,7 @@ class MainWindow(QMainWindow):
     def _on_tick(self) -> None:
         if self._viewport is None or not self.frames.due():
             return
-        self.frames.rendered(acting=self._viewport.tick())
+        self.frames.rendered(acting=self._viewport.tick(redraw=self.frames.busy))
         if self._viewport.close_requested:  # closing the viewport window quits the app
             self.timer.stop()
             self.keep_unsaved_work(can_cancel=False)  # polyscope cannot take the close back

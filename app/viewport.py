@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 
@@ -13,7 +14,8 @@ COLORS = "labels"
 #: changed, but under software GL (llvmpipe) part of each skipped frame's work is deferred to the
 #: next drawn one: after 9 s of 16 ms ticks, the frame showing a colour change took 3 s.
 #: Redrawing every few ticks pays that work as it comes, so a change shows in about one frame's
-#: time (docs/app.md, Responsiveness).
+#: time; while a run streams results every frame is redrawn (``tick(redraw=True)``), which keeps
+#: each frame's cost steady (docs/app.md, Responsiveness).
 FLUSH_TICKS = 5
 
 
@@ -50,6 +52,10 @@ class PolyscopeViewport:
         # the Qt window holds the controls; polyscope's own panels would cover the shape
         # and take the mouse from the brush
         ps.set_build_default_gui_panels(False)
+        # Software GL (Mesa llvmpipe) rasterizes on every core by default; one is the
+        # renderer's share, the other the engine's run (a second thread made runs slower and
+        # gained no smoother frames). GPU drivers ignore the variable.
+        os.environ.setdefault("LP_NUM_THREADS", "1")
         ps.init(backend) if backend else ps.init()
         # The QTimer paces frames; polyscope's own 60 fps cap would silently skip ticks
         # that come early, and the mouse input of those frames with them.
@@ -240,11 +246,13 @@ class PolyscopeViewport:
     def window_size(self) -> tuple[int, int]:
         return tuple(self._ps.get_window_size())
 
-    def tick(self) -> bool:
+    def tick(self, redraw: bool = False) -> bool:
         """Render one frame, then act on the mouse input it sampled. Returns whether the user
-        did something in the viewport window during it (moved, clicked, scrolled, a key)."""
+        did something in the viewport window during it (moved, clicked, scrolled, a key).
+        `redraw` draws the whole scene even if nothing changed (else every
+        :data:`FLUSH_TICKS` frames)."""
         self._input = None
-        if self.frames % FLUSH_TICKS == 0:
+        if redraw or self.frames % FLUSH_TICKS == 0:
             self._ps.request_redraw()
         self._ps.frame_tick()
         self.frames += 1

@@ -74,4 +74,4 @@ def collection_run(
 def predict_run(model, meshes: Sequence[Mesh]) -> Iterator[FeaturesDone | Predicted | Scored]:
     """:func:`scribbleseg_core.engine.pipeline.predict_run` on one torch thread (see above)."""
     limit_threads(1)
-    yield from _predict_run(replace(model, learner=model.learner.with_threads(1)), meshes)
+    yield from _predict_run(model.with_threads(1), meshes)

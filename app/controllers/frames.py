@@ -24,7 +24,8 @@ class FrameClock:
     active_s : float
         Full rate for this long after :meth:`wake` (input, a change). Default 1.5 s.
     busy_interval : float
-        Seconds between frames while :attr:`busy` (a run under way). Default 0.05.
+        Seconds between frames while :attr:`busy` (a run under way; the viewport then redraws
+        each frame in full, see :meth:`PolyscopeViewport.tick`). Default 0.033.
     idle_interval : float
         Seconds between frames otherwise. Default 0.4.
     waiting : callable() -> bool
@@ -34,7 +35,7 @@ class FrameClock:
     """
 
     def __init__(self, clock: Callable[[], float] = time.perf_counter, active_s: float = 1.5,
-                 busy_interval: float = 0.05, idle_interval: float = 0.4,
+                 busy_interval: float = 0.033, idle_interval: float = 0.4,
                  waiting: Callable[[], bool] = lambda: False) -> None:
         self.clock = clock
         self.active_s, self.busy_interval, self.idle_interval = active_s, busy_interval, idle_interval
@@ -62,7 +63,7 @@ class FrameClock:
 
     def rendered(self, acting: bool = False) -> None:
         """A frame was rendered now; `acting`: the user did something in the viewport during
-        it (it also :meth:`wake`\ s the clock)."""
+        it (then it also calls :meth:`wake`)."""
         self._acting = acting
         if acting:
             self.wake()

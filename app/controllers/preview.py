@@ -13,7 +13,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scribbleseg_app.controllers.jobs import Dispatcher
@@ -275,7 +275,7 @@ class PreviewController:
         if model is None or len(model.label_names) != len(self.model.label_set):
             return None  # labels were added or deleted since the run
         if self._models is None or self._models[0] is not model:
-            self._models = (model, replace(model, learner=model.learner.with_threads(1)))
+            self._models = (model, model.with_threads(1))
         return self._models[1]
 
     def _deliver(self, result: PreviewResult) -> None:  # on the worker thread

@@ -169,6 +169,12 @@ class TrainedModel:
     halves: tuple[FaceClassifier, ...] = ()
     boundary: BoundaryClassifier | None = None
 
+    def with_threads(self, threads: int | None) -> TrainedModel:
+        """This model predicting on `threads` threads (torch and the boundary trees; None: the
+        cores this process may use); it shares the weights, and this one is left as it is."""
+        return replace(self, learner=self.learner.with_threads(threads),
+                       params=replace(self.params, network=replace(self.params.network, threads=threads)))
+
     def boundary_proba(self, shape: ShapeData) -> np.ndarray | None:
         """(q,) probability of a label boundary across each face pair of `shape`, or None
         without a boundary classifier."""
