@@ -170,6 +170,10 @@ def test_unseen_shape_is_predicted_as_the_collection_labeled_it(collection):
     labels = predict_shape(model, shapes[3])
     assert (labels == gts[3]).mean() >= 0.95
     np.testing.assert_array_equal(labels, snaps[-1].labels[3])  # the same cut with the same network
+    one = model.with_threads(1)  # the app's prediction: torch and the boundary trees on one thread
+    assert one.params.network.threads == 1 and one.learner.stage1.params.threads == 1
+    assert model.params.network.threads != 1  # the model itself is left as it was
+    np.testing.assert_array_equal(predict_shape(one, shapes[3]), labels)
 
 
 def test_paper_variant_is_the_patch_level_alternation(collection, paper):
