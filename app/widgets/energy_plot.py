@@ -15,8 +15,9 @@ LINES = (("total", "total", "#1f3b73"), ("scribble", "scribbles", "#d62728"),
 
 class EnergyPlot(QWidget):
     """Draws an :class:`~scribbleseg_app.controllers.run.EnergyHistory`: one line per term over
-    the steps (x: step; y: energy, shared scale with its range on the axis), a dashed line where
-    each round and a prediction began."""
+    the steps (x: step; y: each term on its own scale, from its lowest to its highest value in
+    the run, so a small term's convergence shows beside a large one; the legend gives each
+    term's latest value), a dashed line where each round and a prediction began."""
 
     def __init__(self, parent=None):
         super().__init__(parent)
@@ -41,7 +42,10 @@ class EnergyPlot(QWidget):
         p.drawText(4, fm.ascent() + 2, title)
         legend_y = 2 * fm.height() + 2
         x = 4
-        for _, name, color in LINES:
+        last = steps[-1].energy if steps else None
+        for attr, name, color in LINES:
+            if last is not None and not math.isnan(getattr(last, attr)):
+                name = f"{name} {getattr(last, attr):.1f}"
             p.setPen(QPen(QColor(color), 2))
             p.drawLine(x, legend_y - fm.ascent() // 2, x + 14, legend_y - fm.ascent() // 2)
             p.setPen(Qt.GlobalColor.black)
@@ -49,21 +53,15 @@ class EnergyPlot(QWidget):
             x += 24 + fm.horizontalAdvance(name)
         values = [getattr(s.energy, a) for s in steps for a, _, _ in LINES]
         values = [v for v in values if not math.isnan(v)]
-        label_w = fm.horizontalAdvance("000000.0") + 6
+        label_w = 8
         area = QRectF(label_w, legend_y + 6, self.width() - label_w - 8, self.height() - legend_y - 8 - fm.height())
         p.setPen(QPen(Qt.GlobalColor.gray, 1))
         p.drawLine(area.bottomLeft(), area.bottomRight())
         p.drawLine(area.bottomLeft(), area.topLeft())
-        p.drawText(int(area.left()), int(area.bottom() + fm.ascent() + 2), "step")
+        p.drawText(int(area.left()), int(area.bottom() + fm.ascent() + 2), "step; each term on its own scale")
         if not values:
             p.drawText(area.adjusted(6, 0, 0, 0), Qt.AlignmentFlag.AlignCenter, "run 'Segment collection' to see it converge")
             return
-        lo, hi = min(0.0, min(values)), max(values)
-        span = (hi - lo) or 1.0
-        for v in (lo, hi):
-            y = area.bottom() - area.height() * (v - lo) / span
-            p.drawText(QRectF(0, y - fm.height() / 2, label_w - 4, fm.height()),
-                       Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter, f"{v:.1f}")
         n = max(len(steps), 2)
 
         def px(i: float) -> float:
@@ -78,8 +76,12 @@ class EnergyPlot(QWidget):
             p.setPen(QColor("#555555"))  # alternate rows, so that close marks do not overlap
             p.drawText(QPointF(xm + 2, area.top() + fm.ascent() + (row % 2) * fm.height()), text)
         for attr, _, color in LINES:
-            pts = [QPointF(px(i), area.bottom() - area.height() * (getattr(s.energy, attr) - lo) / span)
-                   for i, s in enumerate(steps) if not math.isnan(getattr(s.energy, attr))]
+            term = [(i, getattr(s.energy, attr)) for i, s in enumerate(steps) if not math.isnan(getattr(s.energy, attr))]
+            if not term:
+                continue
+            lo, hi = min(v for _, v in term), max(v for _, v in term)
+            pts = [QPointF(px(i), area.bottom() - area.height() * ((v - lo) / (hi - lo) if hi > lo else 0.5))
+                   for i, v in term]
             p.setPen(QPen(QColor(color), 2 if attr == "total" else 1.5))
             for a, b in zip(pts, pts[1:]):
                 p.drawLine(a, b)
