@@ -46,6 +46,7 @@ class FrameClock:
         self.max_gap = 0.0  # longest time between two frames since :meth:`reset_gap` (s)
         self._active_until = -float("inf")
         self._last: float | None = None
+        self._gap_from = -float("inf")  # when :meth:`reset_gap` was called
 
     def wake(self) -> None:
         """Something changed or the user is acting: render at the full rate for a while."""
@@ -69,9 +70,12 @@ class FrameClock:
             self.wake()
         now = self.clock()
         if self._last is not None:
-            self.max_gap = max(self.max_gap, now - self._last)
+            self.max_gap = max(self.max_gap, now - max(self._last, self._gap_from))
         self._last = now
         self.frames += 1
 
     def reset_gap(self) -> None:
+        """Measure :attr:`max_gap` from now (a run starts): the wait for the first frame counts
+        from here, not from the last frame of an idle window."""
         self.max_gap = 0.0
+        self._gap_from = self.clock()

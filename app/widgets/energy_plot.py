@@ -22,6 +22,7 @@ class EnergyPlot(QWidget):
     def __init__(self, parent=None):
         super().__init__(parent)
         self.history = None
+        self.area = QRectF()  # where the lines were last drawn
         self.setMinimumHeight(150)
 
     def set_history(self, history) -> None:
@@ -46,6 +47,8 @@ class EnergyPlot(QWidget):
         for attr, name, color in LINES:
             if last is not None and not math.isnan(getattr(last, attr)):
                 name = f"{name} {getattr(last, attr):.1f}"
+            if x > 4 and x + 18 + fm.horizontalAdvance(name) > self.width() - 4:  # wrap the legend
+                x, legend_y = 4, legend_y + fm.height()
             p.setPen(QPen(QColor(color), 2))
             p.drawLine(x, legend_y - fm.ascent() // 2, x + 14, legend_y - fm.ascent() // 2)
             p.setPen(Qt.GlobalColor.black)
@@ -54,7 +57,8 @@ class EnergyPlot(QWidget):
         values = [getattr(s.energy, a) for s in steps for a, _, _ in LINES]
         values = [v for v in values if not math.isnan(v)]
         label_w = 8
-        area = QRectF(label_w, legend_y + 6, self.width() - label_w - 8, self.height() - legend_y - 8 - fm.height())
+        self.area = area = QRectF(label_w, legend_y + 6, self.width() - label_w - 8,
+                                  self.height() - legend_y - 8 - fm.height())
         p.setPen(QPen(Qt.GlobalColor.gray, 1))
         p.drawLine(area.bottomLeft(), area.bottomRight())
         p.drawLine(area.bottomLeft(), area.topLeft())
@@ -82,7 +86,7 @@ class EnergyPlot(QWidget):
             lo, hi = min(v for _, v in term), max(v for _, v in term)
             pts = [QPointF(px(i), area.bottom() - area.height() * ((v - lo) / (hi - lo) if hi > lo else 0.5))
                    for i, v in term]
-            p.setPen(QPen(QColor(color), 2 if attr == "total" else 1.5))
+            p.setPen(QPen(QColor(color), 3.5 if attr == "total" else 1.5))  # the total shows beside a term it follows
             for a, b in zip(pts, pts[1:]):
                 p.drawLine(a, b)
             for q in pts:

@@ -288,6 +288,14 @@ def test_the_frame_clock_renders_on_change_and_slowly_when_idle():
     assert not clock.due()
     clock.busy = True  # a run streams results: every 50 ms
     assert clock.due()
+    now[0] = 1.25
+    clock.reset_gap()  # the run starts 0.05 s after the last idle frame
+    now[0] = 1.26
+    clock.rendered()
+    assert clock.max_gap == pytest.approx(0.01)  # counted from the run's start
+    now[0] = 1.4
+    clock.rendered()
+    assert clock.max_gap == pytest.approx(0.14)
 
 
 def test_frames_give_way_to_a_preview_being_computed_unless_the_user_acts():
