@@ -418,6 +418,12 @@ class MainWindow(QMainWindow):
         # label ids must not change under a run: its results use the old ones
         for b in (self.labels.add_button, self.labels.delete_button):
             b.setEnabled(False)
+        # A full garbage collection walks every object and stalls a frame for 100-150 ms: run
+        # it now, as the run starts, and keep what survives out of the collector's reach until
+        # the next run (its cycles are collected then).
+        gc.unfreeze()
+        gc.collect()
+        gc.freeze()
         self.frames.busy = True
         self.frames.reset_gap()
         self.statusBar().showMessage("computing shape signatures…" if kind == "segmentation" else "predicting…")

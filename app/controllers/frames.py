@@ -25,21 +25,23 @@ class FrameClock:
         Full rate for this long after :meth:`wake` (input, a change). Default 1.5 s.
     busy_interval : float
         Seconds between frames while :attr:`busy` (a run under way; the viewport then redraws
-        each frame in full, see :meth:`PolyscopeViewport.tick`). Default 0.033.
+        each frame in full, see :meth:`PolyscopeViewport.tick`). Default 0.025.
     idle_interval : float
         Seconds between frames otherwise. Default 0.4.
     waiting : callable() -> bool
         Whether a result the user waits for (the live preview) is being computed; then a
         change alone does not keep the full rate, input at the last frame does, and frames
-        come every `busy_interval` otherwise. Default never.
+        come every `waiting_interval` otherwise. Default never.
+    waiting_interval : float
+        Seconds between frames while `waiting` and the user does not act. Default 0.1.
     """
 
     def __init__(self, clock: Callable[[], float] = time.perf_counter, active_s: float = 1.5,
-                 busy_interval: float = 0.033, idle_interval: float = 0.4,
-                 waiting: Callable[[], bool] = lambda: False) -> None:
+                 busy_interval: float = 0.025, idle_interval: float = 0.4,
+                 waiting: Callable[[], bool] = lambda: False, waiting_interval: float = 0.1) -> None:
         self.clock = clock
         self.active_s, self.busy_interval, self.idle_interval = active_s, busy_interval, idle_interval
-        self.waiting = waiting
+        self.waiting, self.waiting_interval = waiting, waiting_interval
         self.busy = False
         self._acting = False  # the user acted in the viewport during the last frame
         self.frames = 0
@@ -60,7 +62,9 @@ class FrameClock:
         waiting = self.waiting()
         if now < self._active_until and not waiting:
             return True
-        return now - self._last >= (self.busy_interval if self.busy or waiting else self.idle_interval)
+        if self.busy:
+            return now - self._last >= self.busy_interval
+        return now - self._last >= (self.waiting_interval if waiting else self.idle_interval)
 
     def rendered(self, acting: bool = False) -> None:
         """A frame was rendered now; `acting`: the user did something in the viewport during

@@ -300,14 +300,15 @@ def test_the_frame_clock_renders_on_change_and_slowly_when_idle():
 
 def test_frames_give_way_to_a_preview_being_computed_unless_the_user_acts():
     now, waiting = [0.0], [False]
-    clock = FrameClock(lambda: now[0], active_s=1.0, busy_interval=0.05, idle_interval=0.3, waiting=lambda: waiting[0])
+    clock = FrameClock(lambda: now[0], active_s=1.0, busy_interval=0.05, idle_interval=0.3, waiting=lambda: waiting[0],
+                       waiting_interval=0.05)
     clock.rendered()
     clock.wake()  # a stroke was released: a change
     waiting[0] = True  # and its preview is under way
     now[0] = 0.02
     assert not clock.due()  # a frame now would show nothing new
     now[0] = 0.06
-    assert clock.due()  # but frames still come every busy interval
+    assert clock.due()  # but frames still come every waiting interval
     clock.rendered(acting=True)  # the user moves the mouse in the viewport
     now[0] = 0.07
     assert clock.due()  # full rate while they act
