@@ -76,7 +76,7 @@ def warm_imports() -> None:
     import scribbleseg_core.engine.pipeline  # noqa: F401
 
     # What the imports made lives as long as the app: out of the collector's reach, a full
-    # collection no longer walks it (it took 150 ms, a stalled frame, at random moments).
+    # collection no longer walks it (a stalled frame at a random moment otherwise).
     gc.freeze()
 
 
@@ -418,9 +418,9 @@ class MainWindow(QMainWindow):
         # label ids must not change under a run: its results use the old ones
         for b in (self.labels.add_button, self.labels.delete_button):
             b.setEnabled(False)
-        # A full garbage collection walks every object and stalls a frame for 100-150 ms: run
-        # it now, as the run starts, and keep what survives out of the collector's reach until
-        # the next run (its cycles are collected then).
+        # A full garbage collection walks every object and stalls a frame: run it now, as the
+        # run starts, and keep what survives out of the collector's reach until the next run
+        # (its cycles are collected then).
         gc.unfreeze()
         gc.collect()
         gc.freeze()

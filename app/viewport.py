@@ -52,9 +52,9 @@ class PolyscopeViewport:
         # the Qt window holds the controls; polyscope's own panels would cover the shape
         # and take the mouse from the brush
         ps.set_build_default_gui_panels(False)
-        # Software GL (Mesa llvmpipe) rasterizes on every core by default; one is the
-        # renderer's share, the other the engine's run (a second thread made runs slower and
-        # gained no smoother frames). GPU drivers ignore the variable.
+        # Software GL (Mesa llvmpipe) rasterizes on every core by default; one core is the
+        # renderer's share, the other the engine's run (docs/app.md, Responsiveness). GPU
+        # drivers ignore the variable.
         os.environ.setdefault("LP_NUM_THREADS", "1")
         ps.init(backend) if backend else ps.init()
         # The QTimer paces frames; polyscope's own 60 fps cap would silently skip ticks

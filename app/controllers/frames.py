@@ -4,8 +4,8 @@ Rendering a frame costs about 20 ms of CPU under software GL (STACK.md), so the 
 the full rate only while something moves: for :attr:`FrameClock.active_s` after input or a
 change, and every :attr:`FrameClock.busy_interval` while a run streams results; otherwise it
 renders (and so polls the viewport window's input) every :attr:`FrameClock.idle_interval`.
-While a live preview is being computed, only input keeps the full rate: frames rendered to show
-nothing new would take the two cores from the preview (it came twice as late on a 50k-face shape).
+While a live preview is being computed, only input keeps the full rate: frames that show nothing
+new would take the cores from the preview (docs/app.md, Responsiveness).
 """
 
 from __future__ import annotations
