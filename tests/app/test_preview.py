@@ -27,6 +27,25 @@ def test_preview_labels_the_planted_parts_and_keeps_scribbles():
     assert PreviewEngine().compute(_request(1, mesh, np.full_like(scribble, -1))) is None
 
 
+def test_stroke_by_stroke_edits_give_what_a_fresh_preview_gives():
+    """The engine starts each preview from the mesh's previous one and reuses the distances of
+    labels no edit touched (tests/core/test_propagate.py checks those equal fresh ones): after
+    strokes added one by one, a stroke erased and re-added, and one relabeled and back, every
+    preview keeps the strokes, and the last one is what a fresh engine gives."""
+    mesh, gt = creature(1.6, 0.9, seed=2)
+    engine, scribble = PreviewEngine(), np.full(mesh.num_file_faces, -1)
+    strokes = [stroke_faces(mesh, gt, lab) for lab in range(len(LABELS))]
+    edits = [(faces, lab) for lab, faces in enumerate(strokes)]
+    edits += [(strokes[1], -1), (strokes[1], 1), (strokes[2], 0), (strokes[2], 2)]  # erase, re-add, relabel, undo
+    for gen, (faces, lab) in enumerate(edits, 1):
+        scribble[faces] = lab
+        labels = engine.compute(_request(gen, mesh, scribble.copy()))
+        np.testing.assert_array_equal(labels[scribble >= 0], scribble[scribble >= 0])
+    assert (labels == gt).mean() >= 0.95
+    fresh = PreviewEngine().compute(_request(1, mesh, scribble.copy()))
+    assert (labels == fresh).mean() >= 0.99
+
+
 def test_latest_request_wins_and_results_arrive_in_order():
     mesh, gt = creature(1.6, 0.9, seed=1)
     got, done = [], threading.Event()
