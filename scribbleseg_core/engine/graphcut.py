@@ -141,7 +141,8 @@ def graph_clusters(matrix, size: int, seed: int = 0) -> np.ndarray:
     Returns
     -------
     (p,) int64 ndarray
-        Cluster id per node, ``0 .. c−1``; a component without a drawn node is a cluster.
+        Cluster id per node, ``0 .. c−1``; every connected component holds at least one
+        cluster (one of its nodes joins the draw).
     """
     from scipy.sparse.csgraph import connected_components, dijkstra
 
