@@ -80,6 +80,7 @@ class PreviewEngine:
     def __init__(self) -> None:
         self._graphs: OrderedDict[int, tuple[Mesh, DualGraph, np.ndarray]] = OrderedDict()  # with face clusters
         self._shapes: OrderedDict[int, ShapeData] = OrderedDict()  # with their network inputs and geodesics
+        self._logp: OrderedDict[int, tuple[Mesh, object, np.ndarray]] = OrderedDict()  # (mesh, model, log-probabilities)
         self._sdf: OrderedDict[int, tuple[Mesh, np.ndarray]] = OrderedDict()
         # the previous preview: (mesh, num_labels, labels, scribble, scribble distances)
         self._last: OrderedDict[int, tuple[Mesh, int, np.ndarray, np.ndarray, np.ndarray]] = OrderedDict()
@@ -91,7 +92,7 @@ class PreviewEngine:
 
     def cached_meshes(self) -> int:
         """How many meshes have something kept (tests: the caches stay bounded)."""
-        return len(set(self._graphs) | set(self._shapes) | set(self._sdf) | set(self._last))
+        return len(set(self._graphs) | set(self._shapes) | set(self._logp) | set(self._sdf) | set(self._last))
 
     def graph(self, mesh: Mesh) -> DualGraph:
         return self._graph(mesh)[1]
@@ -105,18 +106,25 @@ class PreviewEngine:
         return self._graphs[key]
 
     def log_proba(self, mesh: Mesh, model) -> np.ndarray:
-        """The model's face log-probabilities; features and context come from the disk
-        caches a run filled (computed there on first use)."""
+        """The model's face log-probabilities, kept per mesh while the model stays the same
+        (they do not depend on the strokes); features and context come from the disk caches a
+        run filled (computed there on first use)."""
         from scribbleseg_core.geometry.measures import face_areas
         from scribbleseg_core.signatures.features import cached_face_features
 
         key = id(mesh)
+        kept = self._logp.get(key)
+        if kept is not None and kept[0] is mesh and kept[1] is model:
+            self._keep(self._logp, key)
+            return kept[2]
         if key not in self._shapes or self._shapes[key].mesh is not mesh:  # the run's inputs and disk caches
             X = cached_face_features(mesh.V, mesh.F)
             scribble = np.full(len(mesh.F), -1, np.int64)
             self._shapes[key] = ShapeData(mesh, X, face_areas(mesh.normalized(), mesh.F), self.graph(mesh), scribble)
         self._keep(self._shapes, key)
-        return model.log_proba(self._shapes[key])
+        self._logp[key] = (mesh, model, model.log_proba(self._shapes[key]))
+        self._keep(self._logp, key)
+        return self._logp[key][2]
 
     def compute(self, req: PreviewRequest) -> np.ndarray | None:
         """(m0,) file-face labels, or None when the shape has no scribbles. The graph cut

@@ -157,6 +157,43 @@ def graph_clusters(matrix, size: int, seed: int = 0) -> np.ndarray:
     return np.unique(source, return_inverse=True)[1].astype(np.int64)
 
 
+def coarsen(clusters: np.ndarray, pinned: np.ndarray, edges: np.ndarray, weights: np.ndarray):
+    """The coarse graph of a clustering: one node per (cluster, pinned label) pair, so that
+    nodes pinned to different labels (strokes) never share a coarse node.
+
+    Parameters
+    ----------
+    clusters : (p,) int ndarray
+        Cluster id per node (:func:`graph_clusters`).
+    pinned : (p,) int ndarray
+        The label a node is pinned to, -1 where free.
+    edges : (q, 2) int ndarray
+    weights : (q,) float ndarray
+
+    Returns
+    -------
+    coarse : (p,) int64 ndarray
+        Coarse node per node, ``0 .. c−1``.
+    coarse_edges : (r, 2) int64 ndarray
+        Pairs of coarse nodes joined by an arc, each once.
+    coarse_weights : (r,) float64 ndarray
+        The summed weights of the arcs between them.
+    """
+    import scipy.sparse as sp
+
+    clusters, pinned = np.asarray(clusters, dtype=np.int64), np.asarray(pinned, dtype=np.int64)
+    k = int(pinned.max(initial=-1)) + 1
+    coarse = np.unique(clusters * (k + 1) + (pinned + 1), return_inverse=True)[1].ravel().astype(np.int64)
+    c = int(coarse.max()) + 1 if coarse.size else 0
+    ci, cj = coarse[edges[:, 0]], coarse[edges[:, 1]]
+    cross = ci != cj
+    W = sp.coo_matrix((np.asarray(weights, dtype=np.float64)[cross], (np.minimum(ci, cj)[cross], np.maximum(ci, cj)[cross])),
+                      shape=(c, c)).tocsr()
+    W.sum_duplicates()
+    W = W.tocoo()
+    return coarse, np.c_[W.row, W.col].astype(np.int64), W.data
+
+
 def multilevel_alpha_expansion(
     unary: np.ndarray,
     edges: np.ndarray,
@@ -206,15 +243,10 @@ def multilevel_alpha_expansion(
     # coarse nodes: (cluster, the label a hard-constrained node must take, else -1)
     finite = unary < INF
     pinned = np.where(finite.sum(axis=1) == 1, finite.argmax(axis=1), -1)
-    coarse = np.unique(clusters * (k + 1) + (pinned + 1), return_inverse=True)[1].ravel()
+    coarse, coarse_edges, coarse_weights = coarsen(clusters, pinned, edges, weights)
     c = int(coarse.max()) + 1 if p else 0
     S = sp.csr_matrix((np.ones(p), (coarse, np.arange(p))), shape=(c, p))
     Uc = S @ unary
-    ci, cj = coarse[edges[:, 0]], coarse[edges[:, 1]]
-    cross = ci != cj
-    W = sp.coo_matrix((weights[cross], (np.minimum(ci, cj)[cross], np.maximum(ci, cj)[cross])), shape=(c, c)).tocsr()
-    W.sum_duplicates()
-    Wc = W.tocoo()
     init_c = None
     if init is not None:
         first = np.full(c, -1, np.int64)
@@ -222,7 +254,7 @@ def multilevel_alpha_expansion(
         init_c = np.asarray(init, dtype=np.int64)[first]
         bad = Uc[np.arange(c), init_c] >= INF
         init_c[bad] = np.argmin(Uc[bad], axis=1)
-    labels = alpha_expansion(Uc, np.c_[Wc.row, Wc.col], Wc.data, init=init_c, max_sweeps=max_sweeps)[coarse]
+    labels = alpha_expansion(Uc, coarse_edges, coarse_weights, init=init_c, max_sweeps=max_sweeps)[coarse]
     # refine a band around the coarse boundaries, the rest held fixed
     i, j = edges[:, 0], edges[:, 1]
     near = np.zeros(p, bool)

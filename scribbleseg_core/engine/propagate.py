@@ -14,10 +14,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from scipy.sparse.csgraph import connected_components, dijkstra
 
-from scribbleseg_core.engine.graphcut import INF, alpha_expansion, multilevel_alpha_expansion
+from scribbleseg_core.engine.graphcut import INF, alpha_expansion, coarsen, multilevel_alpha_expansion
 from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph, pair_mean
 
 #: Alpha-expansion sweeps at most per cut (each sweep tries every label once).
@@ -147,17 +148,24 @@ class FaceEnergy:
         whose strokes and creases say where its parts meet.
     distances : (m, k) float ndarray, optional
         :func:`scribble_distances` of `scribble`, when the caller has them.
+    clusters : (m,) int ndarray, optional
+        Face clusters (:func:`~scribbleseg_core.engine.graphcut.graph_clusters`): the cut is
+        then multilevel (:func:`~scribbleseg_core.engine.graphcut.multilevel_alpha_expansion`)
+        and the random walk solved on the clusters (:func:`random_walk_probabilities`):
+        several times faster on large meshes, at a slightly higher energy (the app's preview,
+        docs/app.md).
     """
 
     def __init__(self, graph: DualGraph, scribble: np.ndarray, k: int, params: PropagateParams = PropagateParams(),
                  sdf: np.ndarray | None = None, boundary_proba: np.ndarray | None = None,
-                 distances: np.ndarray | None = None):
+                 distances: np.ndarray | None = None, clusters: np.ndarray | None = None):
         scribble = np.asarray(scribble, dtype=np.int64)
         if scribble.shape != (graph.num_faces,):
             raise ValueError(f"scribble has shape {scribble.shape}, expected ({graph.num_faces},)")
         if scribble.max(initial=-1) >= k:
             raise ValueError(f"scribble label {scribble.max()} out of range for {k} labels")
         self.graph, self.scribble, self.k, self.params = graph, scribble, k, params
+        self.clusters = clusters
         self.pairs = graph.pairs
         self.strokes = np.flatnonzero(scribble >= 0)
         if boundary_proba is not None and params.boundary > 0 and not self.strokes.size:
@@ -195,7 +203,8 @@ class FaceEnergy:
     def walk(self) -> np.ndarray:
         """(m, k) ``−log`` of the random-walker probabilities from the strokes (computed once)."""
         if self._walk is None:
-            P = random_walk_probabilities(self.graph, self.scribble, self.k, self.params.crease, self.params.convex)
+            P = random_walk_probabilities(self.graph, self.scribble, self.k, self.params.crease, self.params.convex,
+                                          self.clusters)
             self._walk = -np.log(np.maximum(P, 1e-6))
         return self._walk
 
@@ -218,17 +227,13 @@ class FaceEnergy:
         U[s, self.scribble[s]] = 0.0
         return U
 
-    def cut(self, log_proba: np.ndarray | None = None, init: np.ndarray | None = None,
-            clusters: np.ndarray | None = None) -> np.ndarray:
-        """Labels minimizing the energy by alpha-expansion, (m,) int64; starts from `init`
-        when given (the energy never rises above it), else from the unary argmin. With
-        `clusters` ((m,) int, :func:`~scribbleseg_core.engine.graphcut.graph_clusters`) the
-        cut is multilevel (:func:`~scribbleseg_core.engine.graphcut.multilevel_alpha_expansion`):
-        several times faster on large meshes, at a slightly higher energy (the app's preview,
-        docs/app.md)."""
+    def cut(self, log_proba: np.ndarray | None = None, init: np.ndarray | None = None) -> np.ndarray:
+        """Labels minimizing the energy by alpha-expansion (multilevel with `clusters`),
+        (m,) int64; starts from `init` when given (the energy never rises above it), else
+        from the unary argmin."""
         U = self.unary(log_proba)
-        if clusters is not None:
-            return multilevel_alpha_expansion(U, self.pairs, self.weights, clusters, init=init, band=BAND,
+        if self.clusters is not None:
+            return multilevel_alpha_expansion(U, self.pairs, self.weights, self.clusters, init=init, band=BAND,
                                               max_sweeps=MAX_SWEEPS)
         start = np.argmin(U, axis=1) if init is None else init
         return alpha_expansion(U, self.pairs, self.weights, init=start, max_sweeps=MAX_SWEEPS)
@@ -281,7 +286,7 @@ def propagate_scribbles(
         Labels to start the graph cut from (e.g. the previous result after one more stroke:
         it converges in fewer moves); default the unary argmin.
     clusters : (m,) int ndarray, optional
-        Face clusters for a multilevel cut (:meth:`FaceEnergy.cut`).
+        Face clusters: a multilevel cut and walk (:class:`FaceEnergy`).
     distances : (m, k) float ndarray, optional
         :func:`scribble_distances` of `scribble`, when the caller has them.
 
@@ -293,7 +298,7 @@ def propagate_scribbles(
     """
     if not (np.asarray(scribble) >= 0).any():
         raise ValueError("no face is scribbled")
-    return FaceEnergy(graph, scribble, k, params, sdf, distances=distances).cut(log_proba, init=init, clusters=clusters)
+    return FaceEnergy(graph, scribble, k, params, sdf, distances=distances, clusters=clusters).cut(log_proba, init=init)
 
 
 def propagate_shape(shape, k: int, params: PropagateParams = PropagateParams(),
@@ -304,7 +309,7 @@ def propagate_shape(shape, k: int, params: PropagateParams = PropagateParams(),
 
 
 def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, crease: float,
-                              convex: float = CONVEX_FACTOR) -> np.ndarray:
+                              convex: float = CONVEX_FACTOR, clusters: np.ndarray | None = None) -> np.ndarray:
     """Random-walker label probabilities from the scribbles (a harmonic field per label).
 
     Solves ``L_uu X_u = −L_us X_s`` on the face graph with edge weights ``(ℓ / centroid
@@ -323,6 +328,11 @@ def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, cr
         Concavity scale of the edge weights (as in :meth:`DualGraph.crease_potts_weights`).
     convex : float
         Weight of convex creases in the concavity (:meth:`DualGraph.concavity`).
+    clusters : (m,) int ndarray, optional
+        Face clusters (:func:`~scribbleseg_core.engine.graphcut.graph_clusters`): the walk is
+        solved on the graph of the clusters (each split by the strokes' labels, arc weights
+        summed) and every face takes its cluster's probabilities; several times faster on
+        large meshes (the app's preview).
 
     Returns
     -------
@@ -330,9 +340,24 @@ def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, cr
         Rows sum to 1 where reached; columns of labels not scribbled are 0.
     """
     scribble = np.asarray(scribble, dtype=np.int64)
-    m = graph.num_faces
     w = graph.diffusion_weights * np.exp(-graph.concavity(convex) / crease)
-    L = graph.laplacian(np.maximum(w, 1e-9 * max(pair_mean(w), 1e-300)))  # sharp creases: weak, never cut off
+    w = np.maximum(w, 1e-9 * max(pair_mean(w), 1e-300))  # sharp creases: weak, never cut off
+    if clusters is None:
+        return _harmonic(graph.laplacian(w), scribble, k)
+    coarse, pairs, weights = coarsen(clusters, scribble, graph.pairs, w)
+    c = int(coarse.max()) + 1 if coarse.size else 0
+    seed = np.full(c, -1, np.int64)
+    seed[coarse] = scribble  # a coarse node's faces share their stroke label, or have none
+    W = sp.coo_matrix((np.r_[weights, weights], (np.r_[pairs[:, 0], pairs[:, 1]], np.r_[pairs[:, 1], pairs[:, 0]])),
+                      shape=(c, c)).tocsr()
+    L = (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
+    return _harmonic(L, seed, k)[coarse]
+
+
+def _harmonic(L: sp.csr_matrix, scribble: np.ndarray, k: int) -> np.ndarray:
+    """(n, k) harmonic label probabilities on the graph of Laplacian `L` (n, n) from the seed
+    label per node `scribble` (n,), -1 where free (:func:`random_walk_probabilities`)."""
+    m = L.shape[0]
     seeded = scribble >= 0
     P = np.zeros((m, k))
     P[seeded, scribble[seeded]] = 1.0

@@ -111,3 +111,35 @@ def test_the_sdf_for_the_contrast_term_comes_only_from_the_cache(tmp_path, monke
 
     monkeypatch.setattr(features_module, "cached_face_features", no_lookup)
     np.testing.assert_array_equal(engine.sdf(mesh), X[:, 1])  # kept once found
+
+
+def test_the_network_runs_once_per_mesh_and_model(monkeypatch):
+    """After a run the preview adds the network's log-probabilities; they do not depend on the
+    strokes, so the next strokes reuse them until another model comes."""
+    from types import SimpleNamespace
+
+    import scribbleseg_core.signatures.features as features_module
+    from scribbleseg_core.engine.propagate import PropagateParams
+
+    mesh, gt = creature(1.6, 0.9, seed=1)
+    monkeypatch.setattr(features_module, "cached_face_features", lambda V, F, **kw: np.zeros((len(F), 22)))
+
+    class Model:
+        params = SimpleNamespace(propagation=PropagateParams(contrast=0.0))
+
+        def __init__(self):
+            self.calls = 0
+
+        def log_proba(self, shape):
+            self.calls += 1
+            return np.log(np.full((len(shape.mesh.F), len(LABELS)), 1.0 / len(LABELS)))
+
+    engine, first, second = PreviewEngine(), Model(), Model()
+    scribble = np.full(mesh.num_file_faces, -1)
+    for gen, lab in enumerate(range(len(LABELS)), 1):
+        scribble[stroke_faces(mesh, gt, lab)] = lab
+        labels = engine.compute(PreviewRequest(gen, 0, mesh, scribble.copy(), len(LABELS), first, time.perf_counter()))
+    assert first.calls == 1
+    assert (labels == gt).mean() >= 0.95
+    engine.compute(PreviewRequest(9, 0, mesh, scribble.copy(), len(LABELS), second, time.perf_counter()))
+    assert second.calls == 1  # a new model: its own probabilities

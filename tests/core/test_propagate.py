@@ -110,6 +110,20 @@ def test_random_walk_probabilities_are_a_distribution(planted):
     assert (P.argmax(axis=1) == gt).mean() >= 0.95
 
 
+def test_random_walk_on_clusters_is_close_to_the_walk_on_faces(planted):
+    graph, gt, scribble = planted
+    k = len(LABELS) + 1  # one label never scribbled
+    clusters = graph_clusters(graph.crease_matrix, CLUSTER_SIZE)
+    P = random_walk_probabilities(graph, scribble, k, crease=0.03)
+    Q = random_walk_probabilities(graph, scribble, k, crease=0.03, clusters=clusters)
+    np.testing.assert_allclose(Q.sum(axis=1), 1.0, atol=1e-6)
+    assert np.all(Q[:, -1] == 0)
+    sel = scribble >= 0
+    assert np.all(Q[sel, scribble[sel]] == 1.0)  # a stroke's faces never share a cluster with others
+    assert np.abs(P - Q).max(axis=1).mean() < 0.05
+    assert (Q.argmax(axis=1) == gt).mean() >= 0.95
+
+
 def test_random_walk_leaves_unscribbled_components_at_zero(planted):
     graph, _, scribble = planted
     # two copies of the mesh side by side, strokes on the first copy only
