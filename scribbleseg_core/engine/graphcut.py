@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from scribbleseg_core.geometry.dual_graph import pair_matrix
+
 #: Stand-in for an infinite unary cost (a forbidden label). Large, but far from
 #: float64 overflow when summed over many nodes.
 INF = 1e9
@@ -234,7 +236,7 @@ def multilevel_alpha_expansion(
     import scipy.sparse as sp
 
     unary = np.asarray(unary, dtype=np.float64)
-    p, k = unary.shape
+    p = unary.shape[0]
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     weights = np.asarray(weights, dtype=np.float64).reshape(-1)
     clusters = np.asarray(clusters, dtype=np.int64)
@@ -260,7 +262,7 @@ def multilevel_alpha_expansion(
     near = np.zeros(p, bool)
     differ = labels[i] != labels[j]
     near[i[differ]] = near[j[differ]] = True
-    A = sp.coo_matrix((np.ones(2 * len(edges)), (np.r_[i, j], np.r_[j, i])), shape=(p, p)).tocsr()
+    A = pair_matrix(edges, 1.0, p)
     for _ in range(band):
         near |= (A @ near.astype(np.float64)) > 0
     nodes = np.flatnonzero(near)

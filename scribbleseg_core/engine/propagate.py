@@ -19,7 +19,7 @@ import scipy.sparse.linalg as sla
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from scribbleseg_core.engine.graphcut import INF, alpha_expansion, coarsen, multilevel_alpha_expansion
-from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph, pair_mean
+from scribbleseg_core.geometry.dual_graph import CONVEX_FACTOR, DualGraph, pair_laplacian, pair_mean
 
 #: Alpha-expansion sweeps at most per cut (each sweep tries every label once).
 MAX_SWEEPS = 4
@@ -348,10 +348,7 @@ def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, cr
     c = int(coarse.max()) + 1 if coarse.size else 0
     seed = np.full(c, -1, np.int64)
     seed[coarse] = scribble  # a coarse node's faces share their stroke label, or have none
-    W = sp.coo_matrix((np.r_[weights, weights], (np.r_[pairs[:, 0], pairs[:, 1]], np.r_[pairs[:, 1], pairs[:, 0]])),
-                      shape=(c, c)).tocsr()
-    L = (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
-    return _harmonic(L, seed, k)[coarse]
+    return _harmonic(pair_laplacian(pairs, weights, c), seed, k)[coarse]
 
 
 def _harmonic(L: sp.csr_matrix, scribble: np.ndarray, k: int) -> np.ndarray:

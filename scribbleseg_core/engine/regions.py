@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra
 
 from scribbleseg_core.engine.patches import over_segment
-from scribbleseg_core.geometry.dual_graph import DualGraph
+from scribbleseg_core.geometry.dual_graph import DualGraph, pair_matrix
 
 #: Patches a :class:`RegionFill` splits a shape into; their borders are where creases are averaged.
 FILL_PATCHES = 100
@@ -109,7 +108,7 @@ def components(graph: DualGraph, mask: np.ndarray) -> np.ndarray:
     from 0, -1 outside the mask."""
     mask = np.asarray(mask, bool)
     keep = mask[graph.pairs[:, 0]] & mask[graph.pairs[:, 1]]
-    _, comp = connected_components(_symmetric(graph.pairs[keep, 0], graph.pairs[keep, 1], graph.num_faces),
+    _, comp = connected_components(pair_matrix(graph.pairs[keep], 1.0, graph.num_faces),
                                    directed=False)
     out = np.full(graph.num_faces, -1, np.int64)
     _, out[mask] = np.unique(comp[mask], return_inverse=True)
@@ -120,11 +119,7 @@ def _reached(graph: DualGraph, keep: np.ndarray, seed: int) -> np.ndarray:
     """Faces reached from face `seed` across the face pairs where `keep` (q,) holds; sorted (k,) int64."""
     if not 0 <= seed < graph.num_faces:
         raise ValueError(f"seed face {seed} out of range for {graph.num_faces} faces")
-    reached = breadth_first_order(_symmetric(graph.pairs[keep, 0], graph.pairs[keep, 1], graph.num_faces), int(seed),
+    reached = breadth_first_order(pair_matrix(graph.pairs[keep], 1.0, graph.num_faces), int(seed),
                                   directed=False, return_predecessors=False)
     return np.sort(reached).astype(np.int64)
 
-
-def _symmetric(i: np.ndarray, j: np.ndarray, n: int) -> sp.csr_matrix:
-    """(n, n) symmetric 0/1 matrix with the pairs (i, j)."""
-    return sp.coo_matrix((np.ones(2 * i.size), (np.r_[i, j], np.r_[j, i])), shape=(n, n)).tocsr()

@@ -85,14 +85,11 @@ class DualGraph:
     def laplacian(self, weights: np.ndarray | None = None) -> sp.csr_matrix:
         """Graph Laplacian ``D − W``, (m, m) csr, with arc weights `weights` (q,); by default
         :attr:`diffusion_weights`."""
-        W = self.matrix(self.diffusion_weights if weights is None else weights)
-        return (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
+        return pair_laplacian(self.pairs, self.diffusion_weights if weights is None else weights, self.num_faces)
 
     def matrix(self, values: np.ndarray) -> sp.csr_matrix:
         """Symmetric sparse (m, m) matrix with `values` (q,) on the arcs."""
-        i, j = self.pairs[:, 0], self.pairs[:, 1]
-        m = self.num_faces
-        return sp.coo_matrix((np.r_[values, values], (np.r_[i, j], np.r_[j, i])), shape=(m, m)).tocsr()
+        return pair_matrix(self.pairs, values, self.num_faces)
 
 
 def dual_graph(V: np.ndarray, F: np.ndarray) -> DualGraph:
@@ -109,6 +106,21 @@ def dual_graph(V: np.ndarray, F: np.ndarray) -> DualGraph:
     # concave when the neighbour's centroid lies above this face's tangent plane
     concave = np.einsum("ij,ij->i", C[j] - C[i], N[i]) > 1e-12 * np.maximum(length, 1e-300)
     return DualGraph(pairs, length, np.linalg.norm(C[i] - C[j], axis=1), bend, concave, F.shape[0])
+
+
+def pair_matrix(pairs: np.ndarray, values: np.ndarray, n: int) -> sp.csr_matrix:
+    """Symmetric sparse (n, n) matrix with `values` (q,) at the node pairs `pairs` (q, 2) and
+    their mirror images (values of a repeated pair add up)."""
+    i, j = pairs[:, 0], pairs[:, 1]
+    values = np.broadcast_to(np.asarray(values, dtype=np.float64), (len(pairs),))
+    return sp.coo_matrix((np.r_[values, values], (np.r_[i, j], np.r_[j, i])), shape=(n, n)).tocsr()
+
+
+def pair_laplacian(pairs: np.ndarray, weights: np.ndarray, n: int) -> sp.csr_matrix:
+    """Graph Laplacian ``D − W``, (n, n) csr, of the node pairs `pairs` (q, 2) with arc weights
+    `weights` (q,)."""
+    W = pair_matrix(pairs, weights, n)
+    return (sp.diags(np.asarray(W.sum(axis=1)).ravel()) - W).tocsr()
 
 
 def pair_mean(values: np.ndarray) -> float:
