@@ -334,6 +334,33 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
                    model or net.model(problem), tuple(net.held_out_log_proba(inputs)))
 
 
+def fit_learner(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], num_labels: int,
+                params: SegmentParams = SegmentParams()) -> Learner:
+    """The learner of `params` trained once on given labels, without the alternation or cuts.
+
+    What the alternation's training step does with fixed labels: stage 1 on every shape, and
+    (with label context) stage 2 on stage-1 probabilities from the networks trained on the
+    other half of the shapes. It compares learners apart from the energy around them
+    (``scripts/learner_alone.py``).
+
+    Parameters
+    ----------
+    shapes : sequence of ShapeData
+    labels : sequence of (m_s,) int ndarray
+        Label per face of each shape (-1: not trained on), ids below `num_labels`.
+    num_labels : int
+    params : SegmentParams
+        Its network, inputs and stages (``method="face"``).
+    """
+    if len(shapes) != len(labels):
+        raise ValueError(f"{len(shapes)} shapes but {len(labels)} label arrays")
+    inputs = [params.network_input(s) for s in shapes]
+    context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
+    net = _Networks(inputs[0].shape[1], num_labels, params.network, 0.0, [True] * len(shapes), context_of)
+    net.fit(inputs, [np.asarray(lab, dtype=np.int64) for lab in labels])
+    return net.main
+
+
 def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentParams) -> bool:
     """Whether `warm`'s learner can go on training in place of `fresh` (same labels, method,
     input width and stages)."""
