@@ -20,6 +20,7 @@ from scribbleseg_app.controllers.jobs import Dispatcher
 from scribbleseg_app.events import Event
 
 from scribbleseg_core.engine.graphcut import graph_clusters
+from scribbleseg_core.engine.guidance import stroke_agreement
 from scribbleseg_core.engine.propagate import (
     CLUSTER_SIZE,
     PropagateParams,
@@ -129,12 +130,17 @@ class PreviewEngine:
     def compute(self, req: PreviewRequest) -> np.ndarray | None:
         """(m0,) file-face labels, or None when the shape has no scribbles. The graph cut
         starts from the shape's previous preview, so one more stroke converges in fewer
-        moves, and only the labels whose strokes changed get new scribble distances."""
+        moves, and only the labels whose strokes changed get new scribble distances. After a
+        run the model's network term joins, scaled by its
+        :func:`~scribbleseg_core.engine.guidance.stroke_agreement` with the strokes: where the
+        user paints over what the model got wrong, the strokes are what the preview follows."""
         mesh = req.mesh
         scribble = np.asarray(req.file_scribble, dtype=np.int64)[mesh.proc_to_file]
         if not (scribble >= 0).any():
             return None
         logp = self.log_proba(mesh, req.model) if req.model is not None else None
+        if logp is not None:  # a network that contradicts the strokes gives way to them
+            logp = logp * stroke_agreement(logp, scribble)
         params = req.model.params.propagation if req.model is not None else PropagateParams()
         sdf = self.sdf(mesh) if params.contrast > 0 else None
         key, k = id(mesh), req.num_labels

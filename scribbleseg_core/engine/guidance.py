@@ -56,6 +56,30 @@ def label_confidence(log_proba: np.ndarray, labels: np.ndarray, scribble: np.nda
     return conf
 
 
+def stroke_agreement(log_proba: np.ndarray, scribble: np.ndarray) -> float:
+    """How far a network that never saw a shape's strokes agrees with them, in [0, 1].
+
+    For each painted label, the median probability the network gives that label on the faces
+    painted with it; the smallest over the labels (1 without strokes). Near 0 when some stroke
+    paints what the network takes for another part: its term should then not outweigh the
+    strokes (the app's live preview scales the network term by this).
+
+    Parameters
+    ----------
+    log_proba : (m, k) float ndarray
+        The network's log label probabilities per face.
+    scribble : (m,) int ndarray
+        Painted label per face, -1 elsewhere.
+    """
+    scribble = np.asarray(scribble)
+    painted = np.flatnonzero(scribble >= 0)
+    if not len(painted):
+        return 1.0
+    p = np.exp(np.asarray(log_proba)[painted, scribble[painted]])
+    lab = scribble[painted]
+    return float(min(np.median(p[lab == label]) for label in np.unique(lab)))
+
+
 def mean_confidence(confidence: np.ndarray, area: np.ndarray) -> float:
     """Area-weighted mean confidence of a shape, in [0, 1]."""
     area = np.asarray(area, dtype=np.float64)

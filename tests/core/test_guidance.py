@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scribbleseg_core.engine.guidance import UNCONFIDENT, label_confidence, mean_confidence, suggest
+from scribbleseg_core.engine.guidance import UNCONFIDENT, label_confidence, mean_confidence, stroke_agreement, suggest
 from scribbleseg_core.engine.regions import RegionFill, components, fill_by_labels, surface_disc
 from scribbleseg_core.geometry.dual_graph import dual_graph
 from scribbleseg_core.geometry.measures import face_areas
@@ -87,3 +87,12 @@ def test_suggestion_is_the_largest_unconfident_region_and_its_inner_face(planted
     assert suggest([graph], [area], [np.ones(graph.num_faces)]) is None
     assert suggest([graph], [area], [None]) is None
     assert UNCONFIDENT == 0.5 and len(LABELS) == 3
+
+
+def test_stroke_agreement_is_the_worst_painted_labels_median_probability():
+    P = np.array([[0.9, 0.1], [0.8, 0.2], [0.7, 0.3], [0.4, 0.6], [0.5, 0.5]])
+    scribble = np.array([0, 0, 1, 1, -1])
+    # label 0 on faces 0, 1: median 0.85; label 1 on faces 2, 3: median 0.45
+    assert np.isclose(stroke_agreement(np.log(P), scribble), 0.45)
+    assert stroke_agreement(np.log(P), np.full(5, -1)) == 1.0  # no strokes: nothing contradicts
+    assert np.isclose(stroke_agreement(np.log(P), np.array([0, -1, -1, -1, -1])), 0.9)
