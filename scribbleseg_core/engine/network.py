@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-import math
 import os
 from dataclasses import dataclass, replace
 from functools import cache
@@ -100,97 +99,14 @@ class _EpochSampler:
         """(k,) labeled faces per label over all shapes."""
         return sum(np.bincount(yi, minlength=k) for yi in self.y).astype(float)
 
-    def draw(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """This epoch's faces: inputs (N, d) and labels (N,) shape by shape, and the random
-        order (N,) to visit them in (rows are not moved: the caller reads them in that order
-        after making them smaller)."""
+    def draw(self) -> tuple[np.ndarray, np.ndarray]:
+        """This epoch's faces in random order: inputs (N, d) and labels (N,)."""
         rows = [self.rng.choice(len(k), self.per_shape, replace=False) if len(k) > self.per_shape else
                 np.arange(len(k)) for k in self.keep]
         Xe = np.concatenate([Xi[k[r]] for Xi, k, r in zip(self.X, self.keep, rows)])
         ye = np.concatenate([yi[r] for yi, r in zip(self.y, rows)])
-        return Xe, ye, self.rng.permutation(len(ye))
-
-
-def _standardized(X: np.ndarray, mean: np.ndarray, std: np.ndarray, *, own: bool = False) -> np.ndarray:
-    """``((X − mean) / std)`` as float32 (m, d); with `own`, `X` (float64, ours to overwrite)
-    is reused as the scratch space."""
-    Z = X if own else np.asarray(X, dtype=np.float64) - mean
-    if own:
-        np.subtract(Z, mean, out=Z)
-    np.divide(Z, std, out=Z)
-    return Z.astype(np.float32)
-
-
-def one_cycle(step: int, total: int, peak: float) -> tuple[float, float]:
-    """Learning rate and Adam's β1 at optimizer step `step` (0-based) of `total`: the one-cycle
-    policy (Smith and Topin 2019) with ``torch.optim.lr_scheduler.OneCycleLR``'s defaults.
-
-    The rate rises from ``peak / 25`` to `peak` over the first 30% of the steps while β1 falls
-    from 0.95 to 0.85, then falls to ``peak / 25e4`` while β1 rises back; both follow half
-    cosines.
-    """
-    phases = ((0.3 * total - 1, peak / 25, peak, 0.95, 0.85), (total - 1, peak, peak / 25e4, 0.85, 0.95))
-    start = 0.0
-    for i, (end, lr0, lr1, b0, b1) in enumerate(phases):
-        if step <= end or i == len(phases) - 1:
-            c = math.cos(math.pi * (step - start) / (end - start)) + 1
-            return lr1 + (lr0 - lr1) / 2 * c, b1 + (b0 - b1) / 2 * c
-        start = end
-    raise AssertionError("unreachable")
-
-
-class AdamW:
-    """AdamW (Loshchilov and Hutter 2019) under :func:`one_cycle`, on plain tensor operations.
-
-    The update of ``torch.optim.AdamW`` (single-tensor form) stepped by ``OneCycleLR``, without
-    ``torch.optim``: its first use imports torch's compiler, about 2 s of every process that
-    trains.
-
-    Parameters
-    ----------
-    params : iterable of torch.Tensor
-        The parameters (``requires_grad``); their ``.grad`` is read at each :meth:`step`.
-    peak : float
-        The schedule's peak learning rate.
-    weight_decay : float
-        Decoupled weight decay, multiplied by the learning rate of the step.
-    total_steps : int
-        Steps of the whole schedule.
-    beta2, eps : float
-        Adam's second-moment decay and denominator term. Defaults 0.999, 1e-8.
-    """
-
-    def __init__(self, params, peak: float, weight_decay: float, total_steps: int, beta2: float = 0.999,
-                 eps: float = 1e-8):
-        import torch
-
-        self.params = [p for p in params if p.requires_grad]
-        self.m = [torch.zeros_like(p) for p in self.params]
-        self.v = [torch.zeros_like(p) for p in self.params]
-        self.peak, self.weight_decay, self.total = peak, weight_decay, int(total_steps)
-        self.beta2, self.eps = beta2, eps
-        self.steps = 0
-
-    def zero_grad(self) -> None:
-        for p in self.params:
-            p.grad = None
-
-    def step(self) -> None:
-        """One update from the parameters' gradients, at the schedule's rate and β1 for this step."""
-        import torch
-
-        lr, beta1 = one_cycle(self.steps, self.total, self.peak)
-        self.steps += 1
-        c1, c2 = 1 - beta1**self.steps, math.sqrt(1 - self.beta2**self.steps)
-        with torch.no_grad():
-            for p, m, v in zip(self.params, self.m, self.v):
-                g = p.grad
-                if g is None:
-                    continue
-                p.mul_(1 - lr * self.weight_decay)
-                m.lerp_(g, 1 - beta1)
-                v.mul_(self.beta2).addcmul_(g, g, value=1 - self.beta2)
-                p.addcdiv_(m, (v.sqrt() / c2).add_(self.eps), value=-lr / c1)
+        order = self.rng.permutation(len(ye))
+        return Xe[order], ye[order]
 
 
 def torch_threads() -> int:
@@ -305,32 +221,34 @@ class FaceClassifier:
         warm = warm and self.trained
         data = _EpochSampler(X, y, p.faces_per_epoch, p.seed)
         if not warm:
-            first, _, order = data.draw()
-            first = first[order]
+            first, _ = data.draw()
             self.mean, self.std = first.mean(0), first.std(0) + 1e-8
             torch.manual_seed(p.seed)
             self.net = build_mlp(self.num_inputs, self.num_labels, p.hidden, p.dropout, p.seed)
         counts = data.label_counts(self.num_labels)
         w = np.where(counts > 0, counts.sum() / np.maximum(counts, 1) / max((counts > 0).sum(), 1), 0.0)
         weight = torch.from_numpy(w.astype(np.float32))
+        opt = torch.optim.AdamW(self.net.parameters(), lr=LEARNING_RATE, weight_decay=WEIGHT_DECAY, fused=True)
         loss_fn = torch.nn.CrossEntropyLoss(weight=weight)
         epochs = p.warm_epochs if warm else p.epochs
         batch = max(1, min(BATCH_SIZE, -(-len(data) // 8)))
-        opt = AdamW(self.net.parameters(), LEARNING_RATE, WEIGHT_DECAY, epochs * -(-len(data) // batch))
+        sched = torch.optim.lr_scheduler.OneCycleLR(
+            opt, max_lr=LEARNING_RATE, total_steps=epochs * -(-len(data) // batch)
+        )
         self.net.train()
         last = 0.0
         for _ in range(epochs):
-            Xe, ye, order = data.draw()
-            Xt = torch.from_numpy(_standardized(Xe, self.mean, self.std, own=True))
-            yt, order = torch.from_numpy(ye), torch.from_numpy(order)
+            Xe, ye = data.draw()
+            Xt = torch.from_numpy(((Xe - self.mean) / self.std).astype(np.float32))
+            yt = torch.from_numpy(ye)
             total = torch.zeros(())
             for s in range(0, len(yt), batch):
-                rows = order[s : s + batch]
-                xb, yb = Xt[rows], yt[rows]
+                xb, yb = Xt[s : s + batch], yt[s : s + batch]
                 opt.zero_grad()
                 loss = loss_fn(self.net(xb), yb)
                 loss.backward()
                 opt.step()
+                sched.step()
                 total += loss.detach() * len(yb)
             last = float(total) / max(len(yt), 1)
         self.net.eval()
@@ -351,5 +269,5 @@ class FaceClassifier:
         torch.set_num_threads(self.params.threads or torch_threads())
         self.net.eval()  # dropout off, whether trained here or loaded from a file
         with torch.no_grad():
-            Z = torch.from_numpy(_standardized(X, self.mean, self.std))
+            Z = torch.from_numpy(((np.asarray(X, dtype=np.float64) - self.mean) / self.std).astype(np.float32))
             return torch.log_softmax(self.net(Z), dim=1).numpy().astype(np.float64)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scribbleseg_core.engine.network import AdamW, FaceClassifier, NetworkParams, build_mlp, one_cycle
+from scribbleseg_core.engine.network import FaceClassifier, NetworkParams, build_mlp
 
 # small and fast; the schedule is the default one scaled down
 PARAMS = NetworkParams(hidden=(16, 8), epochs=30, threads=1)
@@ -76,42 +76,3 @@ def test_dropout_zeroes_the_given_share_in_training_only_and_keeps_the_mean():
     assert abs(float(y.mean()) - 1.0) < 0.01  # survivors are scaled up
     drop.eval()
     assert torch.equal(drop(x), x)
-
-
-def test_adamw_and_one_cycle_match_torch_optim():
-    """The plain-tensor AdamW under the one-cycle schedule takes torch.optim's steps."""
-    import torch
-
-    total = 37
-    nets = [build_mlp(5, 3, (8, 4), seed=0) for _ in range(2)]
-    nets[1].load_state_dict(nets[0].state_dict())
-    before = nets[1][0].weight.detach().numpy().copy()
-    ref = torch.optim.AdamW(nets[0].parameters(), lr=3e-3, weight_decay=1e-2, foreach=False)
-    sched = torch.optim.lr_scheduler.OneCycleLR(ref, max_lr=3e-3, total_steps=total)
-    ours = AdamW(nets[1].parameters(), 3e-3, 1e-2, total)
-    X, y = _blobs(3, n=64)
-    Xt, yt = torch.from_numpy(((X - X.mean(0)) / X.std(0)).astype(np.float32)), torch.from_numpy(y)
-    for step in range(total):
-        lr, beta1 = one_cycle(step, total, 3e-3)
-        assert np.isclose(lr, ref.param_groups[0]["lr"]) and np.isclose(beta1, ref.param_groups[0]["betas"][0])
-        for net, opt in zip(nets, (ref, ours)):
-            opt.zero_grad()
-            torch.nn.functional.cross_entropy(net(Xt), yt).backward()
-            opt.step()
-        sched.step()
-    for a, b in zip(nets[0].parameters(), nets[1].parameters()):
-        np.testing.assert_allclose(a.detach().numpy(), b.detach().numpy(), rtol=1e-5, atol=1e-6)
-    assert np.abs(nets[1][0].weight.detach().numpy() - before).max() > 1e-3  # it did train
-
-
-def test_training_does_not_import_the_compiler():
-    """Training runs without torch.optim, whose first use imports torch._dynamo (seconds)."""
-    import subprocess
-    import sys
-
-    code = ("import sys, numpy as np; from scribbleseg_core.engine.network import FaceClassifier, NetworkParams;"
-            "X = np.random.default_rng(0).normal(size=(200, 4)); y = (X[:, 0] > 0).astype(int);"
-            "FaceClassifier(4, 2, NetworkParams(hidden=(8, 4), epochs=2, threads=1)).fit([X], [y]);"
-            "print('torch._dynamo' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "False"
