@@ -1,5 +1,5 @@
 """Render an exported collection in a grid (polyscope, headless EGL), faces in their labels'
-colors, each titled with its Rand Index error against the ground truth where that is known.
+colors, and print each shape's Rand Index error against the ground truth where that is known.
 
 ``python scripts/render_export.py EXPORT_DIR OUT.png [--truth assets/Quadruped/labels]
 [--painted NAME ...]`` reads every ``<name>.ply`` (and ``<name>.labels.json`` for the colors) that *Export
@@ -33,7 +33,7 @@ def main(argv=None) -> None:
     from scribbleseg_core.formats.mesh import load_mesh
     from scribbleseg_core.formats.seg import read_seg
 
-    plys = sorted(p for p in a.export.glob("*.ply"))
+    plys = sorted(a.export.glob("*.ply"))
     if not plys:
         raise SystemExit(f"error: {a.export}: no .ply files")
     ps.set_allow_headless_backends(True)
@@ -49,14 +49,14 @@ def main(argv=None) -> None:
         sidecar = path.with_name(f"{path.stem}.labels.json")
         if sidecar.is_file():
             doc = json.loads(sidecar.read_text())
-            labels_set = LabelSet.from_names(doc["label_names"], doc["label_colors"])
+            label_set = LabelSet.from_names(doc["label_names"], doc["label_colors"])
         else:  # scribbleseg segment writes no sidecar: the default colors, as in the app
-            labels_set = LabelSet.from_names([str(i) for i in range(max(int(labels.max()) + 1, 1))])
+            label_set = LabelSet.from_names([str(i) for i in range(max(int(labels.max()) + 1, 1))])
         row, col = divmod(i, a.columns)
         V = mesh.V_file - mesh.V_file.mean(0)
         V = V / np.abs(V).max() + np.array([col * 2.6, 0, -row * 2.4])
         m = ps.register_surface_mesh(path.stem, V, mesh.F_file, smooth_shade=False)
-        m.add_color_quantity("labels", labels_set.face_colors(labels), defined_on="faces", enabled=True)
+        m.add_color_quantity("labels", label_set.face_colors(labels), defined_on="faces", enabled=True)
         err = None
         if a.truth is not None and (a.truth / f"{path.stem}.seg").is_file():
             err = rand_index_error(labels, read_seg(a.truth / f"{path.stem}.seg", len(labels)))
