@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import copy
 import os
+import threading
 from dataclasses import dataclass, replace
 from functools import cache
 
 import numpy as np
 
 from scribbleseg_core.infra.cpu import usable_cores
+
+#: Held while seeding torch's global generator and drawing a network's initial weights, so
+#: that networks built in concurrent threads get the same weights as built one after another.
+_INIT_LOCK = threading.Lock()
 
 #: Faces per optimizer step (fewer when an epoch holds under 8 such batches, so small
 #: collections still take 8 steps an epoch); AdamW's peak learning rate (one-cycle
@@ -187,18 +192,23 @@ class FaceClassifier:
     """
 
     def __init__(self, num_inputs: int, num_labels: int, params: NetworkParams = NetworkParams()):
-        import torch
 
         self.params = params
         self.num_inputs = int(num_inputs)
         self.num_labels = int(num_labels)
-        torch.manual_seed(params.seed)
-        self.net = build_mlp(self.num_inputs, self.num_labels, params.hidden, params.dropout, params.seed)
+        self.net = self._new_net()
         self.mean = np.zeros(num_inputs)
         self.std = np.ones(num_inputs)
         self.trained = False
 
-    def fit(self, X: list[np.ndarray], y: list[np.ndarray], *, warm: bool = False) -> float:
+    def _new_net(self):
+        import torch
+
+        with _INIT_LOCK:
+            torch.manual_seed(self.params.seed)
+            return build_mlp(self.num_inputs, self.num_labels, self.params.hidden, self.params.dropout, self.params.seed)
+
+    def fit(self, X: list[np.ndarray], y: list[np.ndarray], *, warm: bool = False, threads: int | None = None) -> float:
         """Train on the faces of several shapes.
 
         Parameters
@@ -208,6 +218,11 @@ class FaceClassifier:
             Labels; faces with -1 are skipped.
         warm : bool
             Continue from the current weights with ``warm_epochs``; else start over.
+        threads : int, optional
+            torch threads for this fit; default ``params.threads`` (:class:`NetworkParams`).
+            Fits that run at once in several Python threads pass 1 each (torch's thread
+            count is the process's). Training draws nothing from torch's generator, so a
+            fit's result does not depend on what runs beside it.
 
         Returns
         -------
@@ -217,14 +232,13 @@ class FaceClassifier:
         import torch
 
         p = self.params
-        torch.set_num_threads(p.threads or torch_threads())
+        torch.set_num_threads(threads or p.threads or torch_threads())
         warm = warm and self.trained
         data = _EpochSampler(X, y, p.faces_per_epoch, p.seed)
         if not warm:
             first, _ = data.draw()
             self.mean, self.std = first.mean(0), first.std(0) + 1e-8
-            torch.manual_seed(p.seed)
-            self.net = build_mlp(self.num_inputs, self.num_labels, p.hidden, p.dropout, p.seed)
+            self.net = self._new_net()
         counts = data.label_counts(self.num_labels)
         w = np.where(counts > 0, counts.sum() / np.maximum(counts, 1) / max((counts > 0).sum(), 1), 0.0)
         weight = torch.from_numpy(w.astype(np.float32))

@@ -36,6 +36,7 @@ from __future__ import annotations
 import copy
 import time
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
@@ -51,7 +52,7 @@ from scribbleseg_core.engine.energy import (
 )
 from scribbleseg_core.engine.graphcut import alpha_expansion
 from scribbleseg_core.engine.learner import Learner, context_input
-from scribbleseg_core.engine.network import FaceClassifier, NetworkParams
+from scribbleseg_core.engine.network import FaceClassifier, NetworkParams, torch_threads
 from scribbleseg_core.engine.patch_features import PatchEncoder, feature_delta, fit_patch_encoder
 from scribbleseg_core.engine.propagate import FaceEnergy, PropagateParams
 from scribbleseg_core.engine.shape import ShapeData
@@ -445,22 +446,47 @@ class _Networks:
 
     def fit(self, inputs, labels) -> None:
         """Train on every shape with labels and inputs, warm when trained before; the boundary
-        classifier on the scribbled shapes' labels, afresh, when the cuts need it."""
+        classifier on the scribbled shapes' labels, afresh, when the cuts need it.
+
+        With two or more torch threads to use and both halves to train, the networks train in
+        two lanes at once, one torch thread each: one half, then stage 1; the other half, then
+        stage 2 (which needs both halves). Small networks use a second core better this way
+        than through torch's threads within each operation; the networks are the same."""
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
         if self.cuts_need_boundary:
             self.fit_boundary(labels)
-        first = self.main.stage1
-        first.fit([inputs[i] for i in usable], [labels[i] for i in usable], warm=first.trained)
-        for f, half in enumerate(self.halves):
-            others = [i for i in usable if self.fold_of[i] != f]
-            if others:
-                half.fit([inputs[i] for i in others], [labels[i] for i in others], warm=half.trained)
+        data = lambda which: ([inputs[i] for i in which], [labels[i] for i in which])  # noqa: E731
+        folds = [[i for i in usable if self.fold_of[i] != f] for f in range(len(self.halves))]
         self._held = {}
+        if (self.params.threads or torch_threads()) >= 2 and len(folds) == 2 and all(folds):
+            with ThreadPoolExecutor(1) as lane:  # runs its jobs in order: half 0, then stage 1
+                half0 = lane.submit(self._fit_half, 0, *data(folds[0]), 1)
+                first = lane.submit(self._fit_first, *data(usable), 1)
+                self._fit_half(1, *data(folds[1]), 1)
+                half0.result()
+                self._fit_second(inputs, labels, usable, 1)
+                first.result()
+            return
+        self._fit_first(*data(usable))
+        for f, others in enumerate(folds):
+            if others:
+                self._fit_half(f, *data(others))
+        self._fit_second(inputs, labels, usable)
+
+    def _fit_first(self, X, y, threads: int | None = None) -> None:
+        self.main.stage1.fit(X, y, warm=self.main.stage1.trained, threads=threads)
+
+    def _fit_half(self, f: int, X, y, threads: int | None = None) -> None:
+        self.halves[f].fit(X, y, warm=self.halves[f].trained, threads=threads)
+
+    def _fit_second(self, inputs, labels, usable, threads: int | None = None) -> None:
+        """Stage 2 on the label distances of the held-out probabilities (else stage 1's)."""
         second = self.main.stage2
-        if second is not None:
-            X2 = [context_input(inputs[i], self.context_of(i), self._held_out_log_proba(i, inputs[i], first))
-                  for i in usable]
-            second.fit(X2, [labels[i] for i in usable], warm=second.trained)
+        if second is None:
+            return
+        X2 = [context_input(inputs[i], self.context_of(i), self._held_out_log_proba(i, inputs[i], self.main.stage1, threads))
+              for i in usable]
+        second.fit(X2, [labels[i] for i in usable], warm=second.trained, threads=threads)
 
     def _held_out(self, i: int) -> FaceClassifier | None:
         """The trained first-stage network that did not see shape i's labels, if any."""
@@ -469,16 +495,19 @@ class _Networks:
         half = self.halves[self.fold_of[i]]
         return half if half.trained else None
 
-    def _held_out_log_proba(self, i: int, x: np.ndarray, fallback: FaceClassifier | None = None) -> np.ndarray | None:
+    def _held_out_log_proba(self, i: int, x: np.ndarray, fallback: FaceClassifier | None = None,
+                            threads: int | None = None) -> np.ndarray | None:
         """Log-probabilities of shape i (input `x`) from its held-out network (else from
-        `fallback`, else None); kept until the next fit, since training and the energy ask twice."""
+        `fallback`, else None), on `threads` torch threads (default the network's); kept
+        until the next fit, since training and the energy ask twice."""
         if i in self._held and self._held[i][0] == id(x):
             return self._held[i][1]
-        net = self._held_out(i)
+        net = self._held_out(i) or fallback
         if net is None:
-            return None if fallback is None else fallback.log_proba(x)
-        out = net.log_proba(x)
-        self._held[i] = (id(x), out)
+            return None
+        out = (net if threads is None else net.with_threads(threads)).log_proba(x)
+        if net is not fallback:
+            self._held[i] = (id(x), out)
         return out
 
     def held_out_log_proba(self, inputs) -> list[np.ndarray | None]:
@@ -487,18 +516,26 @@ class _Networks:
         return [None if x is None else self._held_out_log_proba(i, x) for i, x in enumerate(inputs)]
 
     def log_proba(self, inputs) -> list[np.ndarray | None]:
-        out = []
-        for i, x in enumerate(inputs):
+        """Per shape, the network term's log-probabilities (m_s, k) (None where no input): the
+        learner's, mixed with the held-out network's on scribbled shapes (cross-fitting). With
+        two or more torch threads, two shapes at a time on one thread each."""
+        two = (self.params.threads or torch_threads()) >= 2 and sum(x is not None for x in inputs) >= 2
+        main = self.main.with_threads(1) if two else self.main
+        threads = 1 if two else None
+
+        def one(i: int, x: np.ndarray | None) -> np.ndarray | None:
             if x is None:
-                out.append(None)
-                continue
-            own = self.main.log_proba(x, self.context_of(i) if self.main.stage2 is not None else None)
-            held = self._held_out_log_proba(i, x) if self.share > 0 and self.mixed[i] else None
+                return None
+            own = main.log_proba(x, self.context_of(i) if main.stage2 is not None else None)
+            held = self._held_out_log_proba(i, x, threads=threads) if self.share > 0 and self.mixed[i] else None
             if held is None:
-                out.append(own)
-                continue
-            out.append(np.logaddexp(np.log1p(-self.share) + own, np.log(self.share) + held))
-        return out
+                return own
+            return np.logaddexp(np.log1p(-self.share) + own, np.log(self.share) + held)
+
+        if not two:
+            return [one(i, x) for i, x in enumerate(inputs)]
+        with ThreadPoolExecutor(2) as pool:
+            return list(pool.map(one, range(len(inputs)), inputs))
 
 
 class _FaceProblem:

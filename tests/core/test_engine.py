@@ -132,6 +132,41 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     assert next(x for x in segment_collection(shapes, LABELS, off) if x.model).model.learner.stage2 is None
 
 
+def test_two_training_lanes_give_the_networks_of_one_after_another(collection, monkeypatch):
+    """With two threads to use, the halves, stage 1 and stage 2 train in two lanes at once
+    (one torch thread each), and the shapes' probabilities come two at a time; every network
+    and every probability comes out as when computed one after another."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import torch
+
+    from scribbleseg_core.engine import optimize
+
+    shapes, _, snaps = collection
+    inputs = [PARAMS.network_input(s) for s in shapes]
+    labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
+    lanes = []
+    monkeypatch.setattr(optimize, "ThreadPoolExecutor", lambda n: lanes.append(n) or ThreadPoolExecutor(n))
+
+    def trained(threads):
+        params = dataclasses.replace(PARAMS.network, threads=threads)
+        net = optimize._Networks(inputs[0].shape[1], len(LABELS), params, 0.7, [s.is_scribbled for s in shapes],
+                                 lambda i: shapes[i].label_context)
+        for _ in range(2):  # from scratch, then warm
+            net.fit(inputs, labels)
+        return net
+
+    one, two = trained(1), trained(2)
+    assert lanes == [1, 1]  # only the run with two threads took the lanes, in both fits
+    for a, b in zip(one.log_proba(inputs), two.log_proba(inputs)):
+        np.testing.assert_array_equal(a, b)
+    assert lanes == [1, 1, 2]
+    for a, b in zip([one.main.stage1, *one.halves, one.main.stage2], [two.main.stage1, *two.halves, two.main.stage2]):
+        for (name, x), y in zip(a.net.state_dict().items(), b.net.state_dict().values()):
+            assert torch.equal(x, y), name
+        np.testing.assert_array_equal(a.mean, b.mean)
+
+
 def test_energy_never_increases_and_the_result_is_the_last_cut(collection, paper):
     for snaps in (collection[2], paper):
         totals = [s.energy.total for s in snaps if s.iteration >= 1 and s.phase in ("train", "graphcut")]
@@ -355,8 +390,8 @@ def test_a_run_continues_the_networks_of_an_earlier_one(collection, monkeypatch)
     assert len(last.model.halves) == 2 and last.held_out is not None and all(h is not None for h in last.held_out)
     fits = []
     fit = FaceClassifier.fit
-    monkeypatch.setattr(FaceClassifier, "fit", lambda self, X, y, warm=False: fits.append(warm and self.trained)
-                        or fit(self, X, y, warm=warm))
+    monkeypatch.setattr(FaceClassifier, "fit", lambda self, X, y, warm=False, **kw: fits.append(warm and self.trained)
+                        or fit(self, X, y, warm=warm, **kw))
     *_, warm = segment_collection(shapes, LABELS, PARAMS, warm=last.model)
     assert fits and all(fits)  # every training continued (warm epochs), the first round's too
     assert np.mean([(lab == gt).mean() for lab, gt in zip(warm.labels, gts)]) >= 0.9
