@@ -192,7 +192,6 @@ class FaceClassifier:
     """
 
     def __init__(self, num_inputs: int, num_labels: int, params: NetworkParams = NetworkParams()):
-
         self.params = params
         self.num_inputs = int(num_inputs)
         self.num_labels = int(num_labels)
