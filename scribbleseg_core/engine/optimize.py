@@ -437,6 +437,12 @@ class _Networks:
         boundary classifier; otherwise only the final model does (:meth:`fit_boundary` once)."""
         return self.edges_of is not None and not all(self.mixed)
 
+    @property
+    def _two_lanes(self) -> bool:
+        """Whether two or more torch threads are there to use: networks then train, and shapes'
+        probabilities come, two at a time on one thread each."""
+        return (self.params.threads or torch_threads()) >= 2
+
     def fit_boundary(self, labels) -> None:
         """Train the boundary classifier afresh on the scribbled shapes' `labels`."""
         if self.edges_of is None:
@@ -455,10 +461,13 @@ class _Networks:
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
         if self.cuts_need_boundary:
             self.fit_boundary(labels)
-        data = lambda which: ([inputs[i] for i in which], [labels[i] for i in which])  # noqa: E731
+
+        def data(which):
+            return [inputs[i] for i in which], [labels[i] for i in which]
+
         folds = [[i for i in usable if self.fold_of[i] != f] for f in range(len(self.halves))]
         self._held = {}
-        if (self.params.threads or torch_threads()) >= 2 and len(folds) == 2 and all(folds):
+        if self._two_lanes and len(folds) == 2 and all(folds):
             with ThreadPoolExecutor(1) as lane:  # runs its jobs in order: half 0, then stage 1
                 half0 = lane.submit(self._fit_half, 0, *data(folds[0]), 1)
                 first = lane.submit(self._fit_first, *data(usable), 1)
@@ -519,7 +528,7 @@ class _Networks:
         """Per shape, the network term's log-probabilities (m_s, k) (None where no input): the
         learner's, mixed with the held-out network's on scribbled shapes (cross-fitting). With
         two or more torch threads, two shapes at a time on one thread each."""
-        two = (self.params.threads or torch_threads()) >= 2 and sum(x is not None for x in inputs) >= 2
+        two = self._two_lanes and sum(x is not None for x in inputs) >= 2
         main = self.main.with_threads(1) if two else self.main
         threads = 1 if two else None
 
