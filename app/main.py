@@ -21,6 +21,7 @@ def main(argv: list[str] | None = None) -> int:
     qapp = QApplication.instance() or QApplication(sys.argv[:1])
     window = MainWindow(args.path)
     window.show()
+    window.runs.prepare()  # the first run's process imports the engine while the user paints
     return qapp.exec()
 
 

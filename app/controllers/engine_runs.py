@@ -19,7 +19,7 @@ from scribbleseg_core.engine.pipeline import predict_run as _predict_run
 from scribbleseg_core.formats.mesh import Mesh, load_mesh
 
 __all__ = ["FeaturesDone", "MeshFiles", "Predicted", "Scored", "StepDone", "Suggested", "collection_run",
-           "limit_threads", "predict_run"]
+           "limit_threads", "predict_run", "warm_up"]
 
 
 def limit_threads(n: int = 1) -> None:
@@ -32,6 +32,16 @@ def limit_threads(n: int = 1) -> None:
         threadpool_limits(n)
     except ImportError:
         pass
+
+
+def warm_up() -> None:
+    """What a run's child process does before its run arrives: this module's imports are done
+    (the engine, scipy, maxflow), and one tiny network is trained on one thread, which imports
+    torch and what its first optimizer step needs (:func:`~scribbleseg_core.engine.network.warm_up`)."""
+    from scribbleseg_core.engine.network import warm_up as warm_network
+
+    limit_threads(1)
+    warm_network()
 
 
 class MeshFiles(Sequence):

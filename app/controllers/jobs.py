@@ -145,10 +145,25 @@ def _send(out, kind: str, value) -> None:
     out.flush()
 
 
-def _child_main() -> None:
-    """A :class:`ProcessJob`'s child (``python -m scribbleseg_app.controllers.jobs``): reads
-    the pickled ``(fn, args)`` from stdin, runs it, and writes its messages to what was stdout
-    (stdout itself then goes to stderr, so a stray print cannot corrupt a message)."""
+def _spawn(warm_up: str | None = None):
+    """Start a child (:func:`_child_main`) with this process's module path; it runs `warm_up`,
+    then waits for its job on stdin."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    command = [sys.executable, "-m", "scribbleseg_app.controllers.jobs", *(["--warm-up", warm_up] if warm_up else [])]
+    return subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+
+
+def _child_main(argv: list[str]) -> None:
+    """A :class:`ProcessJob`'s child (``python -m scribbleseg_app.controllers.jobs [--warm-up
+    MODULE:FUNCTION]``): calls the warm-up function if given, then reads the pickled ``(fn,
+    args)`` from stdin, runs it, and writes its messages to what was stdout (stdout itself
+    then goes to stderr, so a stray print cannot corrupt a message). Ends quietly when stdin
+    closes with no job (a spare child the app no longer needs)."""
+    import importlib
     import os
     import sys
 
@@ -156,13 +171,73 @@ def _child_main() -> None:
     os.dup2(2, 1)
     if hasattr(os, "nice"):  # the window's frames come first when both want the cores
         os.nice(CHILD_NICENESS)
-    fn, args = pickle.loads(sys.stdin.buffer.read())  # from the parent that started this process
+    if len(argv) == 2 and argv[0] == "--warm-up":
+        try:
+            module, _, name = argv[1].partition(":")
+            getattr(importlib.import_module(module), name)()
+        except Exception as e:  # the job still runs; it pays the costs the warm-up would have
+            print(f"scribbleseg: warm-up {argv[1]} failed: {type(e).__name__}: {e}", file=sys.stderr)
+    data = sys.stdin.buffer.read()
+    if not data:
+        return
+    fn, args = pickle.loads(data)  # from the parent that started this process
     try:
         for kind, value in _outcomes(fn, args):
             _send(out, kind, value)
     except Exception as e:  # sent as text: an exception object need not pickle
         _send(out, "error", f"{type(e).__name__}: {e}")
     _send(out, "end", None)
+
+
+class SpareProcess:
+    """A child process started before the :class:`ProcessJob` that will use it, so that the
+    job does not wait for Python to start and import what it needs.
+
+    The child runs `warm_up` (``"module:function"``: imports, first-use costs) at the child's
+    low priority as soon as it starts, then waits for its job. :meth:`take` hands the waiting
+    child to a job (or starts one if none waits); :meth:`refill` starts the next. Thread safe.
+
+    Parameters
+    ----------
+    warm_up : str, optional
+        ``"module:function"`` the child calls before it waits; a failure is printed to stderr
+        and the job runs all the same.
+    """
+
+    def __init__(self, warm_up: str | None = None) -> None:
+        self.warm_up = warm_up
+        self._child = None
+        self._closed = False
+        self._lock = threading.Lock()
+
+    @property
+    def waiting(self) -> bool:
+        """Whether a started child waits for a job."""
+        with self._lock:
+            return self._child is not None and self._child.poll() is None
+
+    def refill(self) -> None:
+        """Start a child unless one waits already (nothing once closed)."""
+        with self._lock:
+            if not self._closed and (self._child is None or self._child.poll() is not None):
+                self._child = _spawn(self.warm_up)
+
+    def take(self):
+        """The waiting child for a job, or a new one when none waits (or it died); a
+        ``subprocess.Popen`` whose stdin takes the job."""
+        with self._lock:
+            child, self._child = self._child, None
+        if child is None or child.poll() is not None:
+            child = _spawn(self.warm_up)
+        return child
+
+    def close(self) -> None:
+        """End the waiting child (it holds nothing of the user's); no more are started."""
+        with self._lock:
+            child, self._child, self._closed = self._child, None, True
+        if child is not None and child.poll() is None:
+            child.kill()
+            child.wait()
 
 
 class ProcessJob(Job):
@@ -174,21 +249,19 @@ class ProcessJob(Job):
     `args` plain data: paths rather than open meshes), and items and the result cross back the
     same way, between this process and the child it started. :meth:`cancel` ends the child at
     once; a child that dies without finishing is reported as an error.
+
+    With a `spare` (:class:`SpareProcess`), the job runs in its waiting child, and the next
+    spare is started once the job has ended.
     """
 
-    def __init__(self, fn, args=(), **kwargs) -> None:
+    def __init__(self, fn, args=(), *, spare: SpareProcess | None = None, **kwargs) -> None:
         super().__init__(fn, args, **kwargs)
         self._process = None
+        self._spare = spare
         self._thread = threading.Thread(target=self._read, name=f"{self._thread.name}-reader", daemon=True)
 
     def start(self) -> ProcessJob:
-        import os
-        import subprocess
-        import sys
-
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
-        self._process = subprocess.Popen([sys.executable, "-m", "scribbleseg_app.controllers.jobs"],
-                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+        self._process = self._spare.take() if self._spare is not None else _spawn()
         self._thread.start()
         return self
 
@@ -215,6 +288,9 @@ class ProcessJob(Job):
                 self._process.kill()
             self._post(self._on_error, e)
             self._post(self._on_finished)
+        finally:
+            if self._spare is not None:
+                self._spare.refill()
 
     def _read_all(self) -> None:
         proc = self._process
@@ -243,4 +319,6 @@ class ProcessJob(Job):
 
 
 if __name__ == "__main__":
-    _child_main()
+    import sys
+
+    _child_main(sys.argv[1:])

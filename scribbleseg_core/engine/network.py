@@ -179,6 +179,16 @@ def _mask_dropout(p: float, rng: np.random.Generator, training: bool):
     return module
 
 
+def warm_up() -> None:
+    """Pay torch's first-use costs now: import it and train a tiny network for one epoch on
+    one thread (torch's first optimizer step imports its compiler: about 2 s in all with its
+    files in the page cache, 6 s without). For a process that will train later."""
+    rng = np.random.default_rng(0)
+    net = FaceClassifier(4, 2, NetworkParams(epochs=1, faces_per_epoch=64, dropout=0.0, threads=1))
+    net.fit([rng.normal(size=(64, 4))], [np.arange(64) % 2])
+    net.log_proba(rng.normal(size=(8, 4)))
+
+
 class FaceClassifier:
     """Network plus the feature standardization it was trained with.
 

@@ -3,6 +3,7 @@ only when the test drains the dispatcher, so every interleaving below is determi
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 
@@ -387,3 +388,74 @@ def test_added_meshes_are_read_off_the_main_thread(setup, tmp_path):
     assert len(model.shapes) == 3  # nothing yet: the files are being read
     until(lambda: added, dispatcher)
     assert added == [[3]] and model.shapes[3].loaded and "broken.off" in errors[-1]
+
+
+_WARMED_IN = None
+
+
+def _mark_warm():
+    """A warm-up for a spare child: records the process it ran in."""
+    global _WARMED_IN
+    _WARMED_IN = os.getpid()
+
+
+def _where():
+    """A job: the process it runs in and the one the warm-up ran in."""
+    return os.getpid(), _WARMED_IN
+
+
+def test_a_process_job_runs_in_the_spare_child_warmed_up_before_it():
+    from scribbleseg_app.controllers.jobs import ProcessJob, SpareProcess
+
+    dispatcher, got, errors = QueueDispatcher(), [], []
+    spare = SpareProcess(f"{__name__}:_mark_warm")
+    try:
+        spare.refill()
+        assert spare.waiting
+        first = spare._child.pid
+        spare.refill()  # one waits already: no second
+        assert spare._child.pid == first
+        ProcessJob(_where, dispatcher=dispatcher, spare=spare, on_done=got.append, on_error=errors.append).start()
+        until(lambda: got or errors, dispatcher, timeout=60)
+        assert got == [(first, first)]  # the job ran where the warm-up had run
+        until(lambda: spare.waiting, dispatcher, timeout=30)  # the next one is started once the job ended
+        second = spare._child.pid
+        assert second != first
+        spare._child.kill()  # a spare that died is replaced by a new child, not used
+        spare._child.wait()
+        ProcessJob(_where, dispatcher=dispatcher, spare=spare, on_done=got.append, on_error=errors.append).start()
+        until(lambda: len(got) == 2 or errors, dispatcher, timeout=60)
+        pid, warmed = got[1]
+        assert pid not in (first, second) and warmed == pid and not errors
+    finally:
+        spare.close()
+    assert not spare.waiting
+    spare.refill()  # closed: starts nothing
+    assert not spare.waiting
+
+
+def test_a_failed_warm_up_leaves_the_job_to_run():
+    from scribbleseg_app.controllers.jobs import ProcessJob, SpareProcess
+
+    dispatcher, got = QueueDispatcher(), []
+    spare = SpareProcess("no_such_module_here:warm")
+    try:
+        ProcessJob(_count, (2,), dispatcher=dispatcher, spare=spare, on_item=got.append,
+                   on_finished=lambda: got.append("end")).start()
+        until(lambda: got and isinstance(got[-1], str), dispatcher, timeout=60)
+        assert [int(a[0]) for a in got[:-1]] == [0, 1]
+    finally:
+        spare.close()
+
+
+def test_the_run_controller_prepares_its_next_process_and_ends_it_on_quit(tmp_path):
+    dispatcher = QueueDispatcher()
+    model = CollectionModel(tmp_path / "autosave")
+    runs = RunController(model, dispatcher)
+    runs.prepare()
+    try:
+        assert runs._spare.waiting and runs._spare.warm_up == "scribbleseg_app.controllers.engine_runs:warm_up"
+    finally:
+        assert runs.shutdown()
+    assert not runs._spare.waiting
+    assert RunController(model, dispatcher, job=Job)._spare is None  # threads: no process to prepare
