@@ -158,7 +158,7 @@ class RunController:
     def prepare(self) -> None:
         """Start the next run's child process now (with processes), so that the run does not
         wait for Python to start and import the engine (about 2 s warm, 6 s with torch's
-        files read from disk). The child waits at low priority, holding about 340 MB."""
+        files read from disk). The child waits at low priority, holding 340–420 MB."""
         if self._spare is not None:
             from scribbleseg_app.controllers.engine_runs import limit_threads
 
