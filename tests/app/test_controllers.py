@@ -459,3 +459,14 @@ def test_the_run_controller_prepares_its_next_process_and_ends_it_on_quit(tmp_pa
         assert runs.shutdown()
     assert not runs._spare.waiting
     assert RunController(model, dispatcher, job=Job)._spare is None  # threads: no process to prepare
+
+
+def test_the_warm_up_of_a_run_process_trains_a_network():
+    """The spare child's warm-up must itself work: a failure there is only printed, and the
+    run then pays the imports it was meant to hide."""
+    import sys
+
+    from scribbleseg_app.controllers.engine_runs import warm_up
+
+    warm_up()
+    assert "torch" in sys.modules and "scribbleseg_core.engine.pipeline" in sys.modules
