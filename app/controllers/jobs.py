@@ -216,6 +216,12 @@ class SpareProcess:
         with self._lock:
             return self._child is not None and self._child.poll() is None
 
+    @property
+    def pid(self) -> int | None:
+        """The process id of the child that waits, if any."""
+        with self._lock:
+            return None if self._child is None else self._child.pid
+
     def refill(self) -> None:
         """Start a child unless one waits already (nothing once closed)."""
         with self._lock:
@@ -259,6 +265,11 @@ class ProcessJob(Job):
         self._process = None
         self._spare = spare
         self._thread = threading.Thread(target=self._read, name=f"{self._thread.name}-reader", daemon=True)
+
+    @property
+    def pid(self) -> int | None:
+        """The process id of the child running the job (None before :meth:`start`)."""
+        return None if self._process is None else self._process.pid
 
     def start(self) -> ProcessJob:
         self._process = self._spare.take() if self._spare is not None else _spawn()

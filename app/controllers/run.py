@@ -81,6 +81,11 @@ class RunController:
         With processes, the next run's child is started ahead (:meth:`prepare`, and after
         every run) and imports the engine and torch while the user paints
         (:func:`~scribbleseg_app.controllers.engine_runs.warm_up`).
+
+    Attributes
+    ----------
+    spare : SpareProcess or None
+        The next run's child process (None with threads).
     """
 
     def __init__(self, model, dispatcher: Dispatcher, params=None, job: type[Job] = ProcessJob) -> None:
@@ -88,7 +93,7 @@ class RunController:
         self.dispatcher = dispatcher
         self.params = params
         self._job_type = job
-        self._spare = SpareProcess(WARM_UP) if issubclass(job, ProcessJob) else None
+        self.spare = SpareProcess(WARM_UP) if issubclass(job, ProcessJob) else None
         self.job: Job | None = None
         self.kind: str | None = None
         self.history = EnergyHistory()
@@ -159,11 +164,11 @@ class RunController:
         """Start the next run's child process now (with processes), so that the run does not
         wait for Python to start and import the engine (about 2 s warm, 6 s with torch's
         files read from disk). The child waits at low priority, holding 340–420 MB."""
-        if self._spare is not None:
+        if self.spare is not None:
             from scribbleseg_app.controllers.engine_runs import limit_threads
 
             limit_threads(1)  # the child's BLAS and torch threads, fixed when it starts
-            self._spare.refill()
+            self.spare.refill()
 
     def stop(self) -> None:
         """Stop the run now (a :class:`ProcessJob` ends its process; a :class:`Job` stops
@@ -175,8 +180,8 @@ class RunController:
     def shutdown(self, timeout: float = 10.0) -> bool:
         """Cancel any run and wait for it to end, and end the waiting child process
         (quitting); True when the run ended in time."""
-        if self._spare is not None:
-            self._spare.close()
+        if self.spare is not None:
+            self.spare.close()
         job = self.job
         if job is None:
             return True
@@ -192,7 +197,7 @@ class RunController:
         self.kind, self._indices, self._applied = kind, indices, set()
         self._edits = {i: m.shapes[i].edits for i in indices}
         self._started_at = time.perf_counter()
-        spare = {"spare": self._spare} if self._spare is not None else {}
+        spare = {"spare": self.spare} if self.spare is not None else {}
         self.job = self._job_type(fn, args, dispatcher=self.dispatcher, on_item=self._on_message,
                                   on_error=lambda e: self._end(f"{kind} failed: {e}", error=True),
                                   on_finished=lambda: self._end("finished"), name=f"scribbleseg-{kind}", **spare)

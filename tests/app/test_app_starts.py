@@ -176,9 +176,9 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
     w.show()
     frames_before = viewport.frames
     w.runs.prepare()  # as the app does once its window shows
-    spare = w.runs._spare._child.pid
+    spare = w.runs.spare.pid
     w.run_panel.run_button.click()
-    assert w.runs.job._process.pid == spare  # the run went to the child started ahead
+    assert w.runs.job.pid == spare  # the run went to the child started ahead
     assert not w.run_panel.run_button.isEnabled() and w.run_panel.stop_button.isEnabled()
     assert not w.labels.add_button.isEnabled() and not w.labels.delete_button.isEnabled()
     qtbot.waitUntil(lambda: not w.runs.running, timeout=300_000)

@@ -412,17 +412,17 @@ def test_a_process_job_runs_in_the_spare_child_warmed_up_before_it():
     try:
         spare.refill()
         assert spare.waiting
-        first = spare._child.pid
+        first = spare.pid
         spare.refill()  # one waits already: no second
-        assert spare._child.pid == first
+        assert spare.pid == first
         ProcessJob(_where, dispatcher=dispatcher, spare=spare, on_done=got.append, on_error=errors.append).start()
         until(lambda: got or errors, dispatcher, timeout=60)
         assert got == [(first, first)]  # the job ran where the warm-up had run
         until(lambda: spare.waiting, dispatcher, timeout=30)  # the next one is started once the job ended
-        second = spare._child.pid
+        second = spare.pid
         assert second != first
-        spare._child.kill()  # a spare that died is replaced by a new child, not used
-        spare._child.wait()
+        os.kill(second, 9)  # a spare that died is replaced by a new child, not used
+        until(lambda: not spare.waiting, dispatcher, timeout=10)
         ProcessJob(_where, dispatcher=dispatcher, spare=spare, on_done=got.append, on_error=errors.append).start()
         until(lambda: len(got) == 2 or errors, dispatcher, timeout=60)
         pid, warmed = got[1]
@@ -454,11 +454,11 @@ def test_the_run_controller_prepares_its_next_process_and_ends_it_on_quit(tmp_pa
     runs = RunController(model, dispatcher)
     runs.prepare()
     try:
-        assert runs._spare.waiting and runs._spare.warm_up == "scribbleseg_app.controllers.engine_runs:warm_up"
+        assert runs.spare.waiting and runs.spare.warm_up == "scribbleseg_app.controllers.engine_runs:warm_up"
     finally:
         assert runs.shutdown()
-    assert not runs._spare.waiting
-    assert RunController(model, dispatcher, job=Job)._spare is None  # threads: no process to prepare
+    assert not runs.spare.waiting
+    assert RunController(model, dispatcher, job=Job).spare is None  # threads: no process to prepare
 
 
 def test_the_warm_up_of_a_run_process_trains_a_network():
