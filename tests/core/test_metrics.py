@@ -8,6 +8,7 @@ import pytest
 from scribbleseg_core.evaluation.metrics import (
     consistency_errors,
     cut_discrepancy,
+    error_anatomy,
     hamming_distance,
     labeling_accuracy,
     rand_index_error,
@@ -79,3 +80,27 @@ def test_split_components(sphere):
     z = V[F].mean(1)[:, 2]
     labels = (np.abs(z) > 0.5).astype(int)  # caps share a label but are two components
     assert len(np.unique(split_components(F, labels))) == 3
+
+
+def _strip(n: int) -> np.ndarray:
+    """A strip of 2n triangles in a row, each sharing an edge with the next."""
+    return np.array([[i, i + 1, i + 2] for i in range(2 * n)])
+
+
+def test_error_anatomy_tells_wrong_names_from_misplaced_boundaries():
+    F = _strip(10)  # 20 faces in a row
+    truth = np.repeat([0, 1, 2, 0], 5)  # four parts; parts 0 and 3 share a label
+    renamed = truth.copy()
+    renamed[15:] = 1  # the last part named wrongly, its boundary right
+    shifted = np.repeat([0, 1, 2, 0], [7, 3, 5, 5])  # the first boundary two faces late
+    a = error_anatomy(F, renamed, truth)
+    assert a["error"] > 0 and a["names_right"] == 0
+    assert a["boundaries_right"] == a["error"]  # true boundaries, the same wrong name
+    b = error_anatomy(F, shifted, truth)
+    assert b["error"] == b["names_right"] > 0  # naming each region right cannot move a boundary
+    assert b["boundaries_right"] == 0
+    merged = np.repeat([0, 2, 0], [10, 5, 5])  # parts 0 and 1 in one region
+    c = error_anatomy(F, merged, truth)
+    assert c["names_right"] > 0 and c["boundaries_right"] > 0  # part 1 takes the region's name
+    with pytest.raises(ValueError, match="20 faces"):
+        error_anatomy(F, truth[:-1], truth)
