@@ -182,9 +182,12 @@ def error_anatomy(F: np.ndarray, pred: np.ndarray, truth: np.ndarray) -> dict[st
         ``error`` (of `pred` as it is), ``names_right`` and ``boundaries_right``, Rand Index
         errors (:func:`rand_index_error`).
     """
+    from scribbleseg_core.geometry.topology import face_adjacency, label_components
+
     pred, truth = np.asarray(pred), np.asarray(truth)
     if pred.shape != truth.shape or pred.shape != (len(F),):
         raise ValueError(f"labelings of shape {pred.shape} and {truth.shape} for {len(F)} faces")
+    pairs = face_adjacency(F)[0]
 
     def majority(regions: np.ndarray, values: np.ndarray) -> np.ndarray:
         """Per face, the value most faces of its region have."""
@@ -194,6 +197,6 @@ def error_anatomy(F: np.ndarray, pred: np.ndarray, truth: np.ndarray) -> dict[st
 
     return {
         "error": rand_index_error(pred, truth),
-        "names_right": rand_index_error(majority(split_components(F, pred), truth), truth),
-        "boundaries_right": rand_index_error(majority(split_components(F, truth), pred), truth),
+        "names_right": rand_index_error(majority(label_components(pairs, pred), truth), truth),
+        "boundaries_right": rand_index_error(majority(label_components(pairs, truth), pred), truth),
     }
