@@ -247,8 +247,7 @@ def _bench_params(args):
     return replace(base, network=replace(base.network, threads=args.threads, **given(seed=args.network_seed)),
                    propagation=replace(base.propagation, **given(contrast=args.contrast, walk=args.walk,
                                                                  convex=args.convex, boundary=args.boundary)),
-                   **given(local_shape=args.local_shape, label_context=args.label_context, rounds=args.rounds,
-                           aligned_position=args.aligned_position))
+                   **given(local_shape=args.local_shape, label_context=args.label_context, rounds=args.rounds))
 
 
 def _cmd_bench_merge(args) -> int:
@@ -374,9 +373,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--local-shape", action=argparse.BooleanOptionalAction, default=None,
                    help="the local extrinsic shape around each face among the network's inputs "
                         "(default SegmentParams.local_shape; --no-local-shape: the signatures and their context only)")
-    p.add_argument("--aligned-position", action=argparse.BooleanOptionalAction, default=None,
-                   help="each face's position, the shapes rigidly co-aligned, among the network's inputs "
-                        "(default SegmentParams.aligned_position)")
     p.add_argument("--label-context", action=argparse.BooleanOptionalAction, default=None,
                    help="the learner's second stage, which reads where the first stage puts each label around "
                         "the face (default SegmentParams.label_context)")

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from scribbleseg_core.engine.optimize import SegmentParams, fit_learner
-from scribbleseg_core.engine.shape import align_collection, prepare_shape
+from scribbleseg_core.engine.shape import prepare_shape
 from scribbleseg_core.evaluation.benchmark import load_category
 from scribbleseg_core.evaluation.metrics import rand_index_error
 from scribbleseg_core.evaluation.psb import categories, default_psb_dir
@@ -41,10 +41,9 @@ def run_category(root: Path, cat: str, params: SegmentParams, folds: int) -> flo
     errors = []
     for f in range(folds):
         train = np.flatnonzero(fold_of != f)
-        reference = align_collection([shapes[i] for i in train]) if params.aligned_position else None
-        learner = fit_learner([shapes[i] for i in train], [truth[i] for i in train], len(names), params, reference)
+        learner = fit_learner([shapes[i] for i in train], [truth[i] for i in train], len(names), params)
         for i in np.flatnonzero(fold_of == f):
-            x = params.network_input(shapes[i], reference)
+            x = params.network_input(shapes[i])
             ctx = shapes[i].label_context if learner.stage2 is not None else None
             labels = learner.log_proba(x, ctx).argmax(1)
             errors.append(rand_index_error(items[i].mesh.labels_to_file(labels), items[i].truth))

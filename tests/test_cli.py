@@ -113,10 +113,10 @@ def test_bench_options_reach_the_engine():
     assert default == SegmentParams()
     params = _bench_params(parse(["bench", "data", "--out", "o", "--network-seed", "3", "--threads", "1",
                                   "--walk", "0", "--convex", "0.1", "--contrast", "0", "--no-local-shape",
-                                  "--no-aligned-position", "--method", "paper", "--rounds", "2"]))
+                                  "--method", "paper", "--rounds", "2"]))
     assert (params.network.seed, params.network.threads, params.method, params.rounds) == (3, 1, "paper", 2)
     assert (params.propagation.walk, params.propagation.convex, params.propagation.contrast) == (0, 0.1, 0)
-    assert not params.local_shape and not params.aligned_position
+    assert not params.local_shape
     with pytest.raises(SystemExit):
         parse(["bench", "data", "--out", "o", "--walk", "-0.5"])
 

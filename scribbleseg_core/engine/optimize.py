@@ -55,7 +55,7 @@ from scribbleseg_core.engine.learner import Learner, context_input
 from scribbleseg_core.engine.network import FaceClassifier, NetworkParams, torch_threads
 from scribbleseg_core.engine.patch_features import PatchEncoder, feature_delta, fit_patch_encoder
 from scribbleseg_core.engine.propagate import FaceEnergy, PropagateParams
-from scribbleseg_core.engine.shape import ShapeData, align_collection, network_input_width
+from scribbleseg_core.engine.shape import ShapeData
 from scribbleseg_core.signatures.context import DEFAULT_SCALES
 
 Method = Literal["face", "paper"]
@@ -89,11 +89,6 @@ class SegmentParams:
         The network also reads the local extrinsic shape at each context scale
         (:func:`~scribbleseg_core.signatures.context.local_shape`; 5 values a scale).
         Default True.
-    aligned_position : bool
-        The network also reads each face's position in a frame common to the collection
-        (:func:`~scribbleseg_core.engine.shape.align_collection`: the shapes rigidly
-        co-aligned; a new shape is aligned to the model's reference clouds): 3 inputs, in
-        units of the shape's RMS radius. Default True.
     label_context : bool
         ``"face"`` only: the learner has a second stage that also reads, for every label,
         how far the faces the first stage gives that label lie from the face
@@ -117,7 +112,6 @@ class SegmentParams:
     lam: float = 1.0
     context_scales: tuple[float, ...] = DEFAULT_SCALES
     local_shape: bool = True
-    aligned_position: bool = True
     label_context: bool = True
     cross_fit: float = 0.7
     network: NetworkParams = field(default_factory=NetworkParams)
@@ -135,22 +129,10 @@ class SegmentParams:
         if any(not t > 0 for t in self.context_scales):
             raise ValueError(f"context_scales must be positive; got {self.context_scales}")
 
-    def network_input(self, shape: ShapeData, reference: np.ndarray | None = None) -> np.ndarray:
-        """The network's input per face of `shape` under these parameters, (m, d) float64:
-        :meth:`ShapeData.network_input` (context scales, local shape), then with
-        :attr:`aligned_position` the face positions in the frame of `reference`
-        (:meth:`ShapeData.positions`; required then)."""
-        x = shape.network_input(self.context_scales, self.local_shape)
-        if not self.aligned_position:
-            return x
-        if reference is None:
-            raise ValueError("aligned_position needs the collection's reference clouds (align_collection)")
-        return np.hstack([x, shape.positions(reference)])
-
-    @property
-    def input_width(self) -> int:
-        """d, the length of :meth:`network_input` per face."""
-        return network_input_width(len(self.context_scales), self.local_shape) + 3 * self.aligned_position
+    def network_input(self, shape: ShapeData) -> np.ndarray:
+        """The network's input per face of `shape` under these parameters (context scales,
+        local shape): :meth:`ShapeData.network_input`, (m, d) float64."""
+        return shape.network_input(self.context_scales, self.local_shape)
 
     @property
     def uses_label_context(self) -> bool:
@@ -178,10 +160,6 @@ class TrainedModel:
         ``"face"`` only: where labels meet (:mod:`~scribbleseg_core.engine.boundary`), learned
         from the scribbled shapes' labels with the networks; the smoothness of shapes without
         scribbles. None where those labels hold no boundary (then the crease rule).
-    reference : (r, n, 3) float64 ndarray or None
-        With :attr:`SegmentParams.aligned_position`: the training collection's aligned clouds
-        (:func:`~scribbleseg_core.engine.shape.align_collection`), to which new shapes are
-        aligned.
     """
 
     learner: Learner
@@ -191,7 +169,6 @@ class TrainedModel:
     delta: float | None = None
     halves: tuple[FaceClassifier, ...] = ()
     boundary: BoundaryClassifier | None = None
-    reference: np.ndarray | None = None
 
     def with_threads(self, threads: int | None) -> TrainedModel:
         """This model predicting on `threads` threads (torch and the boundary trees; None: the
@@ -204,12 +181,12 @@ class TrainedModel:
         without a boundary classifier."""
         if self.boundary is None:
             return None
-        x = self.params.network_input(shape, self.reference)
+        x = self.params.network_input(shape)
         return self.boundary.proba(edge_features(shape.graph, shape.X, x), self.params.network.threads)
 
     def log_proba(self, shape: ShapeData) -> np.ndarray:
         """The learner's log label probabilities for the faces of `shape`, (m, k) float64."""
-        x = self.params.network_input(shape, self.reference)
+        x = self.params.network_input(shape)
         if self.learner.stage2 is None:
             return self.learner.log_proba(x)
         return self.learner.log_proba(x, shape.label_context)
@@ -310,8 +287,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     yield Snapshot(0, "init", energy, _frozen(labels, problem.shapes), tuple(lab is not None for lab in labels),
                    time.perf_counter() - t)
     t = time.perf_counter()  # the network's inputs count into the first training
-    inputs = [params.network_input(s, problem.reference) if problem.trains_on(i) else None
-              for i, s in enumerate(problem.shapes)]
+    inputs = [params.network_input(s) if problem.trains_on(i) else None for i, s in enumerate(problem.shapes)]
     d = next(x.shape[1] for x in inputs if x is not None)
     share = params.cross_fit if params.method == "face" else 0.0
     shapes = problem.shapes
@@ -360,7 +336,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
 
 
 def fit_learner(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], num_labels: int,
-                params: SegmentParams = SegmentParams(), reference: np.ndarray | None = None) -> Learner:
+                params: SegmentParams = SegmentParams()) -> Learner:
     """The learner of `params` trained once on given labels, without the alternation or cuts.
 
     What the alternation's training step does with fixed labels: stage 1 on every shape, and
@@ -376,17 +352,10 @@ def fit_learner(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], num_l
     num_labels : int
     params : SegmentParams
         Its network, inputs and stages (``method="face"``).
-    reference : (r, n, 3) ndarray, optional
-        With :attr:`SegmentParams.aligned_position`: the frame of the positions
-        (:func:`~scribbleseg_core.engine.shape.align_collection`); default the `shapes`
-        aligned among themselves. Predict with :meth:`SegmentParams.network_input` and the
-        same reference.
     """
     if len(shapes) != len(labels):
         raise ValueError(f"{len(shapes)} shapes but {len(labels)} label arrays")
-    if params.aligned_position and reference is None:
-        reference = align_collection(list(shapes))
-    inputs = [params.network_input(s, reference) for s in shapes]
+    inputs = [params.network_input(s) for s in shapes]
     context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
     net = _Networks(inputs[0].shape[1], num_labels, params.network, 0.0, [True] * len(shapes), context_of)
     net.fit(inputs, [np.asarray(lab, dtype=np.int64) for lab in labels])
@@ -587,14 +556,6 @@ class _FaceProblem:
         k = len(label_names)
         self.energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes]
         self._boundary: BoundaryClassifier | None = None
-        self._reference: np.ndarray | None = None
-
-    @property
-    def reference(self) -> np.ndarray | None:
-        """The shapes' aligned clouds (every shape takes part), made on first use."""
-        if self._reference is None and self.params.aligned_position:
-            self._reference = align_collection(self.shapes)
-        return self._reference
 
     def trains_on(self, i: int) -> bool:
         return True
@@ -624,7 +585,7 @@ class _FaceProblem:
         return total
 
     def model(self, learner: Learner) -> TrainedModel:
-        return TrainedModel(learner, self.label_names, self.params, reference=self.reference)
+        return TrainedModel(learner, self.label_names, self.params)
 
 
 class _PatchProblem:
@@ -644,14 +605,6 @@ class _PatchProblem:
                       for s in shapes]
         self.P = [s.patch_matrix() if s.is_scribbled else None for s in shapes]
         self.y: list[np.ndarray | None] = [None] * len(shapes)
-        self._reference: np.ndarray | None = None
-
-    @property
-    def reference(self) -> np.ndarray | None:
-        """The scribbled shapes' aligned clouds, made on first use."""
-        if self._reference is None and self.params.aligned_position:
-            self._reference = align_collection([s for s in self.shapes if s.is_scribbled])
-        return self._reference
 
     def trains_on(self, i: int) -> bool:
         return self.shapes[i].is_scribbled
@@ -681,7 +634,7 @@ class _PatchProblem:
         return [None if y is None else y[s.patch] for y, s in zip(self.y, self.shapes)]
 
     def model(self, learner: Learner) -> TrainedModel:
-        return TrainedModel(learner, self.label_names, self.params, self.encoder, self.delta, reference=self.reference)
+        return TrainedModel(learner, self.label_names, self.params, self.encoder, self.delta)
 
 
 def _frozen(labels, shapes) -> tuple[np.ndarray, ...]:

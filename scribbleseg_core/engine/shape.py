@@ -9,7 +9,6 @@ import scipy.sparse as sp
 
 from scribbleseg_core.engine.patches import over_segment, patch_adjacency
 from scribbleseg_core.formats.mesh import Mesh
-from scribbleseg_core.geometry.align import PrincipalCloud, align_to, co_align, own_map
 from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
 from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.infra.cache import ArrayCache, hash_arrays
@@ -84,29 +83,6 @@ class ShapeData:
         return self._cache["label_context"]
 
     @property
-    def principal_cloud(self) -> PrincipalCloud:
-        """The shape in its principal frame (:class:`~scribbleseg_core.geometry.align.PrincipalCloud`
-        of the unit-area mesh), made on first use and kept."""
-        if "principal_cloud" not in self._cache:
-            self._cache["principal_cloud"] = PrincipalCloud.of(self.mesh.normalized(), self.mesh.F, self.area)
-        return self._cache["principal_cloud"]
-
-    def positions(self, reference: np.ndarray) -> np.ndarray:
-        """Face centroids in the frame of `reference`, units of the shape's RMS radius, (m, 3).
-
-        `reference` (r, n, 3) holds aligned clouds (:func:`align_collection`). A shape among
-        them keeps its map (:func:`~scribbleseg_core.geometry.align.own_map`); any other is
-        aligned to them (:func:`~scribbleseg_core.geometry.align.align_to`). The map is kept
-        per reference.
-        """
-        maps = self._cache.setdefault("alignment", {})
-        if id(reference) not in maps or maps[id(reference)][0] is not reference:
-            points = self.principal_cloud.points
-            M = own_map(points, reference)
-            _keep(maps, id(reference), (reference, align_to(points, reference) if M is None else M))
-        return self.principal_cloud.positions(self.mesh.normalized(), self.mesh.F, maps[id(reference)][1])
-
-    @property
     def sdf(self) -> np.ndarray:
         """(m,) float64: the shape diameter column of `X`."""
         return self.X[:, SDF_COLUMN]
@@ -132,32 +108,6 @@ class ShapeData:
         """Indicator (p, m): row i sums face values over patch i."""
         m = len(self.patch)
         return sp.csr_matrix((np.ones(m), (self.patch, np.arange(m))), shape=(self.num_patches, m))
-
-
-def align_collection(shapes: list[ShapeData] | tuple[ShapeData, ...]) -> np.ndarray:
-    """Align `shapes` among themselves (:func:`~scribbleseg_core.geometry.align.co_align`)
-    and return their aligned clouds, the reference of :meth:`ShapeData.positions`.
-
-    Returns
-    -------
-    (r, n, 3) float64 ndarray
-        r = len(shapes); each shape's :meth:`ShapeData.positions` with it need no new alignment.
-    """
-    clouds = [s.principal_cloud.points for s in shapes]
-    maps = co_align(clouds)
-    reference = np.stack([c @ M for c, M in zip(clouds, maps)])
-    for s, M in zip(shapes, maps):
-        _keep(s._cache.setdefault("alignment", {}), id(reference), (reference, M))
-    return reference
-
-
-def _keep(maps: dict, key: int, value: tuple, most: int = 4) -> None:
-    """Store a shape's map for one reference, forgetting the oldest beyond `most` (each holds
-    its reference: a session's runs would otherwise keep every one alive)."""
-    maps.pop(key, None)
-    maps[key] = value
-    while len(maps) > most:
-        maps.pop(next(iter(maps)))
 
 
 def network_input_width(num_scales: int, local_shape: bool) -> int:

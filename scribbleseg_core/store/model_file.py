@@ -6,13 +6,12 @@ A model folder holds three files, and a fourth with a boundary classifier:
     The schema, version :data:`VERSION`::
 
         format          "scribbleseg-model"
-        version         6
+        version         5
         scribbleseg     the package version that wrote it (informational)
         feature_version the per-face signatures' definition it was trained on
         label_names     k names
         network         {"num_inputs", "hidden", "dropout"}: the first stage's architecture
-        inputs          {"context_scales", "local_shape", "aligned_position"}: what the first
-                        stage reads per face
+        inputs          {"context_scales", "local_shape"}: what the first stage reads per face
         label_context   true when the learner has its second stage (same widths; it reads
                         num_inputs + 2k values per face)
         prediction      {"method", "propagation", "lam"}: the energy of the graph cut on new
@@ -27,9 +26,8 @@ A model folder holds three files, and a fourth with a boundary classifier:
     tensors read with ``weights_only=True``.
 ``arrays.npz``
     Input standardization of each stage (``mean``, ``std``; ``context_mean``,
-    ``context_std``); with aligned positions, the training collection's aligned clouds
-    (``reference``, (r, n, 3); new shapes are aligned to them); method "paper" only, the
-    patch encoder's ranges and codebook. Read with ``allow_pickle=False``.
+    ``context_std``) and, method "paper" only, the patch encoder's ranges and codebook; read
+    with ``allow_pickle=False``.
 ``boundary.txt``
     The learned boundary term (:class:`~scribbleseg_core.engine.boundary.BoundaryClassifier`):
     LightGBM's text model, parsed, never executed.
@@ -55,13 +53,14 @@ from scribbleseg_core.engine.network import FaceClassifier, NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams, TrainedModel
 from scribbleseg_core.engine.patch_features import PatchEncoder
 from scribbleseg_core.engine.propagate import PropagateParams
+from scribbleseg_core.engine.shape import network_input_width
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.infra.atomic import atomic_write_bytes, atomic_write_text
 from scribbleseg_core.signatures.features import FEATURE_VERSION
 
 FORMAT = "scribbleseg-model"
 #: The schema version this scribbleseg writes and reads.
-VERSION = 6
+VERSION = 5
 
 
 def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
@@ -80,8 +79,6 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
     arrays = io.BytesIO()
     encoder = {} if enc is None else dict(lo=enc.lo, hi=enc.hi, hks_mean=enc.hks_mean, hks_std=enc.hks_std,
                                           codebook=enc.codebook)
-    if model.reference is not None:
-        extra["reference"] = model.reference
     np.savez(arrays, mean=clf.mean, std=clf.std, **extra, **encoder)
     meta = {
         "format": FORMAT,
@@ -90,8 +87,7 @@ def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:
         "feature_version": FEATURE_VERSION,
         "label_names": list(model.label_names),
         "network": {"num_inputs": clf.num_inputs, "hidden": list(clf.params.hidden), "dropout": clf.params.dropout},
-        "inputs": {"context_scales": list(p.context_scales), "local_shape": p.local_shape,
-                   "aligned_position": p.aligned_position},
+        "inputs": {"context_scales": list(p.context_scales), "local_shape": p.local_shape},
         "label_context": second is not None,
         "prediction": {"method": p.method, "propagation": dataclasses.asdict(p.propagation), "lam": p.lam},
         "patches": None if enc is None else {"bins": enc.bins, "smooth": enc.smooth, "delta": model.delta},
@@ -144,8 +140,7 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
             lam=float(pred["lam"]),
             context_scales=tuple(float(t) for t in inputs["context_scales"]),
             local_shape=bool(inputs["local_shape"]),
-            aligned_position=_flag(inputs["aligned_position"], "aligned_position"),
-            label_context=_flag(meta["label_context"], "label_context"),
+            label_context=_flag(meta["label_context"]),
             network=network,
             propagation=PropagateParams(**pred["propagation"]),
         )
@@ -162,11 +157,6 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         encoder = None
         if params.method == "paper":
             encoder = PatchEncoder(arr["lo"], arr["hi"], arr["hks_mean"], arr["hks_std"], arr["codebook"], bins, smooth)
-        reference = None
-        if params.aligned_position:
-            reference = np.asarray(arr["reference"], dtype=np.float64)
-            if reference.ndim != 3 or reference.shape[0] < 1 or reference.shape[2] != 3 or not np.isfinite(reference).all():
-                raise ValueError(f"reference clouds of shape {reference.shape}, expected (r, n, 3) and finite")
         boundary = None
         if edges is not None:
             boundary = BoundaryClassifier.from_text((folder / "boundary.txt").read_text(encoding="utf-8"))
@@ -177,12 +167,11 @@ def load_model(folder: str | os.PathLike, *, expected_labels: list[str] | tuple[
         raise ModelFileError(f"incomplete model: {Path(e.filename).name} is missing", folder) from None
     except Exception as e:  # wrong shapes, a pickle, truncated files: all "not a model of ours"
         raise ModelFileError(f"corrupt or foreign model files ({type(e).__name__}: {e})"[:300], folder) from None
-    expected = params.input_width
+    expected = network_input_width(len(params.context_scales), params.local_shape)
     clf = learner.stage1
     if clf.num_inputs != expected or clf.mean.shape != (expected,):
         raise ModelFileError(f"expects {clf.num_inputs} inputs per face, its parameters give {expected}", folder)
-    return TrainedModel(learner, names, params, encoder, delta if encoder is not None else None, boundary=boundary,
-                        reference=reference)
+    return TrainedModel(learner, names, params, encoder, delta if encoder is not None else None, boundary=boundary)
 
 
 def _read_meta(folder: Path) -> dict:
@@ -213,9 +202,9 @@ def _read_meta(folder: Path) -> dict:
     return meta
 
 
-def _flag(value, name: str) -> bool:
+def _flag(value) -> bool:
     if not isinstance(value, bool):
-        raise ValueError(f"{name} must be true or false, not {value!r}")
+        raise ValueError(f"label_context must be true or false, not {value!r}")
     return value
 
 

@@ -19,7 +19,7 @@ def planted(tmp_path_factory):
     for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (2.0, 1.1), (1.4, 0.8)]):
         mesh, gt = creature(limb, head, seed=i)
         s = prepare_shape(mesh, cache=cache)
-        out.append((s, gt[s.mesh.proc_to_file], edge_features(s.graph, s.X, SegmentParams(aligned_position=False).network_input(s))))
+        out.append((s, gt[s.mesh.proc_to_file], edge_features(s.graph, s.X, SegmentParams().network_input(s))))
     return out
 
 

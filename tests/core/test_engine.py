@@ -14,12 +14,12 @@ from scribbleseg_core.engine.network import NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams, fit_learner, segment_collection
 from scribbleseg_core.engine.predict import predict_shape
 from scribbleseg_core.engine.propagate import FaceEnergy, propagate_shape
-from scribbleseg_core.engine.shape import align_collection, prepare_shape
+from scribbleseg_core.engine.shape import prepare_shape
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.infra.cache import ArrayCache
 from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
 from scribbleseg_core.signatures.features import NUM_FEATURES
-from scribbleseg_core.store.model_file import VERSION, load_model, save_model
+from scribbleseg_core.store.model_file import load_model, save_model
 from tests.core.planted import LABELS, creature, stroke_faces
 
 PARAMS = SegmentParams(network=NetworkParams(epochs=30, faces_per_epoch=1000))
@@ -88,7 +88,7 @@ def test_cross_fitting_mixes_in_networks_that_never_saw_the_shape(collection):
     from scribbleseg_core.engine.optimize import _Networks
 
     shapes, _, snaps = collection
-    inputs = [PARAMS.network_input(s, snaps[-1].model.reference) for s in shapes]
+    inputs = [PARAMS.network_input(s) for s in shapes]
     labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
     net = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [s.is_scribbled for s in shapes])
     net.fit(inputs, labels)
@@ -110,7 +110,7 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     from scribbleseg_core.engine.learner import context_input
 
     shapes, _, snaps = collection
-    inputs = [PARAMS.network_input(s, snaps[-1].model.reference) for s in shapes]
+    inputs = [PARAMS.network_input(s) for s in shapes]
     labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
     k = len(LABELS)
     seen = []
@@ -143,7 +143,7 @@ def test_two_training_lanes_give_the_networks_of_one_after_another(collection, m
     from scribbleseg_core.engine import optimize
 
     shapes, _, snaps = collection
-    inputs = [PARAMS.network_input(s, snaps[-1].model.reference) for s in shapes]
+    inputs = [PARAMS.network_input(s) for s in shapes]
     labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
     lanes = []
     monkeypatch.setattr(optimize, "ThreadPoolExecutor", lambda n: lanes.append(n) or ThreadPoolExecutor(n))
@@ -213,10 +213,9 @@ def test_unseen_shape_is_predicted_as_the_collection_labeled_it(collection):
 
 def test_fit_learner_trains_both_stages_on_given_labels(collection):
     shapes, gts, _ = collection
-    reference = align_collection(shapes[:3])
-    learner = fit_learner(shapes[:3], gts[:3], len(LABELS), PARAMS, reference)
+    learner = fit_learner(shapes[:3], gts[:3], len(LABELS), PARAMS)
     assert learner.stage2 is not None and learner.stage2.num_inputs == learner.stage1.num_inputs + 2 * len(LABELS)
-    labels = learner.log_proba(PARAMS.network_input(shapes[3], reference), shapes[3].label_context).argmax(1)
+    labels = learner.log_proba(PARAMS.network_input(shapes[3]), shapes[3].label_context).argmax(1)
     assert (labels == gts[3]).mean() >= 0.9  # the held-out shape, without a cut
     alone = fit_learner(shapes[:3], gts[:3], len(LABELS), dataclasses.replace(PARAMS, label_context=False))
     assert alone.stage2 is None
@@ -287,7 +286,6 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     assert back.learner.stage2 is not None and back.params.label_context
     np.testing.assert_allclose(back.log_proba(shapes[3]), model.log_proba(shapes[3]), atol=1e-6)  # no dropout noise
     np.testing.assert_allclose(back.boundary_proba(shapes[3]), model.boundary_proba(shapes[3]), atol=1e-9)
-    np.testing.assert_array_equal(back.reference, model.reference)  # new shapes align to the same frame
     with pytest.raises(ModelFileError, match="trained on labels"):
         load_model(tmp_path / "m", expected_labels=("a", "b"))
     import json
@@ -296,8 +294,8 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
 
     meta_path = tmp_path / "m" / "model.json"
     meta = json.loads(meta_path.read_text())
-    for version, message in [(99, f"model format version 99, written by scribbleseg .*; this scribbleseg reads version {VERSION}"),
-                             (4, f"model format version 4, written by scribbleseg .*, older than the version {VERSION}")]:
+    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 5"),
+                             (4, "model format version 4, written by scribbleseg .*, older than the version 5")]:
         meta_path.write_text(json.dumps({**meta, "version": version}))
         with pytest.raises(ModelFileError, match=message) as refused:
             load_model(tmp_path / "m")
@@ -312,10 +310,10 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
         load_model(tmp_path / "m")
     # weights that do not fit the inputs the file describes are refused
     s = len(model.params.context_scales)
-    assert model.learner.stage1.num_inputs == NUM_FEATURES * (1 + s) + LOCAL_SHAPE_PER_SCALE * s + 3
+    assert model.learner.stage1.num_inputs == NUM_FEATURES * (1 + s) + LOCAL_SHAPE_PER_SCALE * s
     meta_path.write_text(json.dumps({**meta, "inputs": {**meta["inputs"], "local_shape": False}}))
     with pytest.raises(ModelFileError, match=f"expects {model.learner.stage1.num_inputs} inputs per face, its parameters "
-                                             f"give {NUM_FEATURES * (1 + s) + 3}"):
+                                             f"give {NUM_FEATURES * (1 + s)}"):
         load_model(tmp_path / "m")
     # a file whose stages disagree with its weights is refused
     meta_path.write_text(json.dumps({**meta, "label_context": False}))
@@ -331,15 +329,6 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     with pytest.raises(ModelFileError, match="corrupt or foreign"):
         load_model(tmp_path / "m")
     (tmp_path / "m" / "boundary.txt").write_text(text)
-    # aligned positions without the reference clouds they are measured in
-    arrays = dict(np.load(tmp_path / "m" / "arrays.npz"))
-    np.savez(tmp_path / "m" / "arrays.npz", **{k: v for k, v in arrays.items() if k != "reference"})
-    with pytest.raises(ModelFileError, match="corrupt or foreign.*reference"):
-        load_model(tmp_path / "m")
-    np.savez(tmp_path / "m" / "arrays.npz", **{**arrays, "reference": np.full((2, 5, 3), np.nan)})
-    with pytest.raises(ModelFileError, match="reference clouds"):
-        load_model(tmp_path / "m")
-    np.savez(tmp_path / "m" / "arrays.npz", **arrays)
     # a pickle with code in place of the weights is refused, not executed
     torch.save({"weights": object()}, tmp_path / "m" / "weights.pt")
     with pytest.raises(ModelFileError, match="corrupt or foreign"):
