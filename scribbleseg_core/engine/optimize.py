@@ -455,9 +455,10 @@ class _Networks:
         classifier on the scribbled shapes' labels, afresh, when the cuts need it.
 
         With two or more torch threads to use and both halves to train, the networks train in
-        two lanes at once, one torch thread each: one half, then stage 1; the other half, then
-        stage 2 (which needs both halves). Small networks use a second core better this way
-        than through torch's threads within each operation; the networks are the same."""
+        two lanes at once, one torch thread each: one half, stage 2's inputs on the shapes it
+        holds out, then stage 1; the other half, stage 2's inputs on its held-out shapes, then
+        stage 2 (which needs both). Small networks use a second core better this way than
+        through torch's threads within each operation; the networks are the same."""
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
         if self.cuts_need_boundary:
             self.fit_boundary(labels)
@@ -468,12 +469,16 @@ class _Networks:
         folds = [[i for i in usable if self.fold_of[i] != f] for f in range(len(self.halves))]
         self._held = {}
         if self._two_lanes and len(folds) == 2 and all(folds):
-            with ThreadPoolExecutor(1) as lane:  # runs its jobs in order: half 0, then stage 1
+            held = [[i for i in usable if self.fold_of[i] == f] for f in range(2)]  # half f holds these out
+            with ThreadPoolExecutor(1) as lane:  # runs its jobs in order: half 0, its inputs, stage 1
                 half0 = lane.submit(self._fit_half, 0, *data(folds[0]), 1)
+                inputs0 = lane.submit(self._context_inputs, inputs, held[0], 1)
                 first = lane.submit(self._fit_first, *data(usable), 1)
                 self._fit_half(1, *data(folds[1]), 1)
+                X2 = self._context_inputs(inputs, held[1], 1)
                 half0.result()
-                self._fit_second(inputs, labels, usable, 1)
+                X2 |= inputs0.result()
+                self._fit_second(inputs, labels, usable, 1, X2)
                 first.result()
             return
         self._fit_first(*data(usable))
@@ -488,14 +493,23 @@ class _Networks:
     def _fit_half(self, f: int, X, y, threads: int | None = None) -> None:
         self.halves[f].fit(X, y, warm=self.halves[f].trained, threads=threads)
 
-    def _fit_second(self, inputs, labels, usable, threads: int | None = None) -> None:
-        """Stage 2 on the label distances of the held-out probabilities (else stage 1's)."""
+    def _context_inputs(self, inputs, which, threads: int | None = None) -> dict[int, np.ndarray]:
+        """Stage 2's inputs of shapes `which`: their descriptors and the label distances of
+        their held-out probabilities (else stage 1's); {} without a stage 2."""
+        if self.main.stage2 is None:
+            return {}
+        return {i: context_input(inputs[i], self.context_of(i),
+                                 self._held_out_log_proba(i, inputs[i], self.main.stage1, threads)) for i in which}
+
+    def _fit_second(self, inputs, labels, usable, threads: int | None = None,
+                    context_inputs: dict[int, np.ndarray] | None = None) -> None:
+        """Stage 2 on the shapes `usable`, from their :meth:`_context_inputs` (computed here
+        unless given)."""
         second = self.main.stage2
         if second is None:
             return
-        X2 = [context_input(inputs[i], self.context_of(i), self._held_out_log_proba(i, inputs[i], self.main.stage1, threads))
-              for i in usable]
-        second.fit(X2, [labels[i] for i in usable], warm=second.trained, threads=threads)
+        X2 = self._context_inputs(inputs, usable, threads) if context_inputs is None else context_inputs
+        second.fit([X2[i] for i in usable], [labels[i] for i in usable], warm=second.trained, threads=threads)
 
     def _held_out(self, i: int) -> FaceClassifier | None:
         """The trained first-stage network that did not see shape i's labels, if any."""
