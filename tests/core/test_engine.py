@@ -113,14 +113,17 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     inputs = [PARAMS.network_input(s) for s in shapes]
     labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
     k = len(LABELS)
-    seen = []
-    monkeypatch.setattr(optimize, "context_input", lambda x, c, lp: seen.append(lp) or context_input(x, c, lp))
+    seen = []  # (shape, log P) per call; with two training lanes the calls come in either order
+    monkeypatch.setattr(optimize, "context_input",
+                        lambda x, c, lp: seen.append((next(i for i, y in enumerate(inputs) if y is x), lp))
+                        or context_input(x, c, lp))
     net = optimize._Networks(inputs[0].shape[1], k, PARAMS.network, 0.0, [s.is_scribbled for s in shapes],
                              lambda i: shapes[i].label_context)
     net.fit(inputs, labels)
     assert len(net.halves) == 2 and net.main.stage2.num_inputs == inputs[0].shape[1] + 2 * k
     used = [i for i, lab in enumerate(labels) if lab is not None]
-    for i, lp in zip(used, seen):
+    assert sorted(i for i, _ in seen) == used
+    for i, lp in seen:
         np.testing.assert_allclose(lp, net.halves[net.fold_of[i]].log_proba(inputs[i]))
     model = snaps[-1].model
     assert model.learner.stage2 is not None
