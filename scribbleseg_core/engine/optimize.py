@@ -469,23 +469,23 @@ class _Networks:
         folds = [[i for i in usable if self.fold_of[i] != f] for f in range(len(self.halves))]
         self._held = {}
         if self._two_lanes and len(folds) == 2 and all(folds):
-            held = [[i for i in usable if self.fold_of[i] == f] for f in range(2)]  # half f holds these out
+            # with two folds, the shapes half 0 holds out are those half 1 trains on, and back
             with ThreadPoolExecutor(1) as lane:  # runs its jobs in order: half 0, its inputs, stage 1
                 half0 = lane.submit(self._fit_half, 0, *data(folds[0]), 1)
-                inputs0 = lane.submit(self._context_inputs, inputs, held[0], 1)
+                inputs0 = lane.submit(self._context_inputs, inputs, folds[1], 1)
                 first = lane.submit(self._fit_first, *data(usable), 1)
                 self._fit_half(1, *data(folds[1]), 1)
-                X2 = self._context_inputs(inputs, held[1], 1)
+                X2 = self._context_inputs(inputs, folds[0], 1)
                 half0.result()
                 X2 |= inputs0.result()
-                self._fit_second(inputs, labels, usable, 1, X2)
+                self._fit_second(X2, labels, usable, 1)
                 first.result()
             return
         self._fit_first(*data(usable))
         for f, others in enumerate(folds):
             if others:
                 self._fit_half(f, *data(others))
-        self._fit_second(inputs, labels, usable)
+        self._fit_second(self._context_inputs(inputs, usable), labels, usable)
 
     def _fit_first(self, X, y, threads: int | None = None) -> None:
         self.main.stage1.fit(X, y, warm=self.main.stage1.trained, threads=threads)
@@ -501,15 +501,13 @@ class _Networks:
         return {i: context_input(inputs[i], self.context_of(i),
                                  self._held_out_log_proba(i, inputs[i], self.main.stage1, threads)) for i in which}
 
-    def _fit_second(self, inputs, labels, usable, threads: int | None = None,
-                    context_inputs: dict[int, np.ndarray] | None = None) -> None:
-        """Stage 2 on the shapes `usable`, from their :meth:`_context_inputs` (computed here
-        unless given)."""
+    def _fit_second(self, context_inputs: dict[int, np.ndarray], labels, usable, threads: int | None = None) -> None:
+        """Stage 2 on the shapes `usable`, from their :meth:`_context_inputs`."""
         second = self.main.stage2
         if second is None:
             return
-        X2 = self._context_inputs(inputs, usable, threads) if context_inputs is None else context_inputs
-        second.fit([X2[i] for i in usable], [labels[i] for i in usable], warm=second.trained, threads=threads)
+        second.fit([context_inputs[i] for i in usable], [labels[i] for i in usable], warm=second.trained,
+                   threads=threads)
 
     def _held_out(self, i: int) -> FaceClassifier | None:
         """The trained first-stage network that did not see shape i's labels, if any."""
