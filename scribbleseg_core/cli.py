@@ -223,7 +223,7 @@ def _cmd_bench(args) -> int:
     root = Path(args.data)
     if not (root.is_dir() and any(p.is_dir() and (p / "labels").is_dir() for p in root.iterdir())):
         raise ScribblesegError(f"{root}: not a benchmark folder (expected <Category>/labels, scribbles/ and meshes)")
-    modes = {"both": ["train", "test"], "all": ["train", "test", "scribbled", "collection"]}.get(args.mode, [args.mode])
+    modes = {"both": ["train", "test"], "all": ["train", "test", "collection"]}.get(args.mode, [args.mode])
     progress = None if args.quiet else (lambda msg: print(f"  {msg}", file=sys.stderr, flush=True))
     params = _bench_params(args)
     out = _output_folder(args.out)
@@ -338,13 +338,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="evaluate on PSB-style data (../shared/psb) and write a report")
     p.add_argument("data", help="folder of <Category>/ folders with meshes, labels/, scribbles/")
-    p.add_argument("--mode", choices=["train", "test", "both", "scribbled", "collection", "given", "all"], default="both",
+    p.add_argument("--mode", choices=["train", "test", "both", "collection", "given", "all"], default="both",
                    help="train: all shapes painted, scored; test: k folds, held-out shapes predicted; both; "
-                        "scribbled: N painted, the others predicted; collection: N painted, one run on all, the others "
-                        "scored; given: the shapes with scribble files painted, the others predicted")
+                        "collection: N painted, one run on all, the others (predicted) scored; "
+                        "given: the shapes with scribble files painted, the others predicted")
     p.add_argument("--folds", type=_int_at_least(2), default=5, help="test mode: folds by sorted id (20 = leave-one-out)")
     p.add_argument("--scribbled", type=_int_at_least(1), nargs="+", default=[1, 3, 5, 10],
-                   help="scribbled and collection modes: shapes per category that keep their scribbles")
+                   help="collection mode: shapes per category that keep their scribbles")
     p.add_argument("--coverage", type=_fraction, default=1.0, help="keep this central fraction of every stroke")
     p.add_argument("--categories", nargs="+")
     p.add_argument("--method", choices=METHODS, default="face",

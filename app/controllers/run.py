@@ -38,7 +38,7 @@ class EnergyHistory:
     steps : list of EnergyStep
     marks : list of (int, str)
         ``(number of steps before it, text)``: where each round and a prediction began. Steps
-        start at the first cut, when every shape has labels.
+        start at the first training (the painted shapes' energy, network term included).
     """
 
     steps: list[EnergyStep] = field(default_factory=list)
@@ -235,11 +235,9 @@ class RunController:
                 self._applied.add(j)
                 index = self._indices[j]
                 m.set_result(index, labels, "labeled" if m.has_scribbles(index) else "predicted", self._edits[index])
-            # from the first cut on: before it, the shapes without scribbles have no labels and
-            # no energy, so the first training's total is not comparable with the rest
-            first_cut = snap.iteration == 1 and snap.phase == "graphcut"
-            if snap.iteration >= 1 and snap.phase in ("train", "graphcut") and (self.history.steps or first_cut):
-                if snap.phase == "train" or first_cut:
+            # from the first training on (the initial labels have no network term)
+            if snap.iteration >= 1 and snap.phase in ("train", "graphcut"):
+                if snap.phase == "train":
                     self.history.mark(f"round {snap.iteration}")
                 self.history.steps.append(EnergyStep(snap.iteration, snap.phase, snap.energy))
             if snap.done:

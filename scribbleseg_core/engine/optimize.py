@@ -12,8 +12,9 @@ Two variants (:attr:`SegmentParams.method`):
     are hard, the scribble term elsewhere is the crease-aware distance to each label's
     strokes (and, beside the network, the random walk from them), the smoothness is a Potts
     term cheap across concave creases. The initial labels are the cut without the network
-    (the scribble propagation). Shapes without scribbles take part with a uniform scribble
-    term, from the first cut that has a network.
+    (the scribble propagation). Shapes without scribbles are segmented at every cut by that
+    round's model, as new shapes are (:func:`~scribbleseg_core.engine.predict.predict_shape`);
+    their labels train nothing and count in no energy.
 ``"paper"``
     The paper as written, on primitive patches: eq. 1 initial cut, then the alternation
     with eq. 1–4 (:mod:`~scribbleseg_core.engine.energy`) on the patch graph, scribbled
@@ -26,7 +27,8 @@ the multi-scale context and local shape among the network's inputs (:attr:`Segme
 :attr:`SegmentParams.local_shape`), the label-context stage of the learner
 (:attr:`SegmentParams.label_context`, :mod:`~scribbleseg_core.engine.learner`), the learned
 boundary term that smooths shapes without scribbles (:mod:`~scribbleseg_core.engine.boundary`),
-and those shapes taking part.
+and those shapes segmented at every cut, so that the whole collection's labels stream while
+the painted shapes are optimized.
 
 No GUI code here: the app runs the generator in a worker process.
 """
@@ -202,8 +204,9 @@ class Snapshot:
         0 for the initial labels, then the round 1, 2, ...
     phase : {"init", "train", "graphcut", "done"}
     energy : EnergyTerms
-        Summed over the shapes that have labels (``network`` NaN before training): the
-        energy of `labels` under the network of this step.
+        Summed over the scribbled shapes (``network`` NaN before training): the energy of
+        their `labels` under the network of this step. The labels of shapes without
+        scribbles are the model's prediction and count in no energy.
     labels : tuple of (m_s,) int64 ndarray
         Face labels per shape (repaired faces), in the order of the shapes given; -1 for a
         shape not labeled yet (a shape without scribbles before the first network).
@@ -247,10 +250,12 @@ def segment_collection(
     Parameters
     ----------
     shapes : sequence of ShapeData
-        The collection. With ``method="face"`` every shape takes part (those without
-        scribbles from the first cut with a network); with ``"paper"`` only scribbled ones
-        (the others get -1 labels; segment them with
-        :func:`~scribbleseg_core.engine.predict.predict_shape`).
+        The collection. The scribbled shapes are optimized; they alone train the networks.
+        With ``method="face"`` the shapes without scribbles are segmented by each round's
+        model at its cut (as :func:`~scribbleseg_core.engine.predict.predict_shape` would),
+        from the first cut that has a network: trained on their own predicted labels, the
+        networks would learn their mistakes again. With ``"paper"`` they get -1 labels;
+        segment them with :func:`~scribbleseg_core.engine.predict.predict_shape`.
     label_names : sequence of str
         k names; scribble ids index them.
     params : SegmentParams
@@ -287,7 +292,8 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     yield Snapshot(0, "init", energy, _frozen(labels, problem.shapes), tuple(lab is not None for lab in labels),
                    time.perf_counter() - t)
     t = time.perf_counter()  # the network's inputs count into the first training
-    inputs = [params.network_input(s) if problem.trains_on(i) else None for i, s in enumerate(problem.shapes)]
+    inputs = [params.network_input(s) if problem.segments(i) else None for i, s in enumerate(problem.shapes)]
+    taught = [s.is_scribbled for s in problem.shapes]  # the shapes whose labels train the networks
     d = next(x.shape[1] for x in inputs if x is not None)
     share = params.cross_fit if params.method == "face" else 0.0
     shapes = problem.shapes
@@ -297,8 +303,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         def edges_of(i: int, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             g = shapes[i].graph
             return edge_features(g, shapes[i].X, inputs[i]), label_boundaries(g, lab)
-    net = _Networks(d, len(problem.label_names), params.network, share, [s.is_scribbled for s in shapes], context_of,
-                    edges_of)
+    net = _Networks(d, len(problem.label_names), params.network, share, taught, context_of, edges_of)
     if warm is not None and _continues(warm, net.main, problem.label_names, params):
         net.continue_from(warm, params.network.threads)
     model, logp, best, it = None, None, np.inf, 0
@@ -307,7 +312,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         t = t if it == 1 else time.perf_counter()
         previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
-        net.fit(inputs, labels)
+        net.fit(inputs, [lab if t else None for lab, t in zip(labels, taught)])
         new_logp = net.log_proba(inputs)
         new_model = net.model(problem)
         problem.use(new_model)
@@ -324,7 +329,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         changed = tuple(b is not None and (a is None or not np.array_equal(a, b)) for a, b in zip(labels, new))
         labels, energy = new, problem.energy(new, logp)
         yield Snapshot(it, "graphcut", energy, _frozen(labels, problem.shapes), changed, time.perf_counter() - t, model)
-        converged = not any(changed) or energy.total > best * (1 - TOLERANCE)
+        converged = not any(c and t for c, t in zip(changed, taught)) or energy.total > best * (1 - TOLERANCE)
         best = min(best, energy.total)
         if converged:
             break
@@ -374,13 +379,15 @@ def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentP
 class _Networks:
     """The learner the alternation trains, and the network term of the energy it gives.
 
-    The learner (the model) is trained on every labeled shape. Two more first-stage networks
-    are each trained on one half of the shapes (fold ``i % 2``), so that every shape has
-    probabilities from a network that never saw its labels. They serve
+    The learner (the model) is trained on every labeled scribbled shape. Two more first-stage
+    networks are each trained on one half of them (alternate scribbled shapes in the order
+    given), so that every scribbled shape has probabilities from a network that never saw its
+    labels. They serve
 
     * cross-fitting (``share > 0``): a scribbled shape's probabilities are
       ``(1 − share) P_learner + share P_other half``, so its term is not only the echo of its
-      propagated labels (shapes without scribbles use the learner alone, as a new shape would);
+      propagated labels (shapes without scribbles use the learner alone, as a new shape would:
+      no network saw their labels);
     * the label-context stage (`context_of` given): it is trained on the label distances of
       these held-out probabilities, as it will meet on new shapes.
 
@@ -391,7 +398,8 @@ class _Networks:
     params : NetworkParams
     share : float
     mixed : sequence of bool
-        Per shape: is it scribbled (cross-fitted)?
+        Per shape: is it scribbled (trained on, cross-fitted)? Labels given for the others are
+        not trained on.
     context_of : callable(int) -> LabelContext, optional
         A shape's label context; None: no label-context stage.
     edges_of : callable(int, labels) -> ((q, e) ndarray, (q,) bool ndarray), optional
@@ -402,15 +410,15 @@ class _Networks:
 
     def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool], context_of=None,
                  edges_of=None):
-        n = len(mixed)
+        self.mixed = [bool(b) for b in mixed]
+        n = sum(self.mixed)
         self.params = params
         self.context_of, self.edges_of = context_of, edges_of
         self.boundary: BoundaryClassifier | None = None
         stage2 = FaceClassifier(d + 2 * k, k, params) if context_of is not None else None
         self.main = Learner(FaceClassifier(d, k, params), stage2)
         self.share = share if n >= 2 else 0.0
-        self.mixed = list(mixed)
-        self.fold_of = np.arange(n) % 2
+        self.fold_of = (np.cumsum(self.mixed) - 1) % 2  # alternate scribbled shapes; unused for the others
         held_out = n >= 2 and (self.share > 0 or context_of is not None)
         self.halves = [FaceClassifier(d, k, params) for _ in range(2)] if held_out else []
         self._held: dict[int, tuple[int, np.ndarray]] = {}  # shape -> (id of its input, held-out log P)
@@ -451,15 +459,16 @@ class _Networks:
         self.boundary = BoundaryClassifier.fit(taught, seed=self.params.seed, threads=self.params.threads)
 
     def fit(self, inputs, labels) -> None:
-        """Train on every shape with labels and inputs, warm when trained before; the boundary
-        classifier on the scribbled shapes' labels, afresh, when the cuts need it.
+        """Train on every scribbled shape with labels and inputs, warm when trained before; the
+        boundary classifier on the same labels, afresh, when the cuts need it.
 
         With two or more torch threads to use and both halves to train, the networks train in
         two lanes at once, one torch thread each: one half, stage 2's inputs on the shapes it
         holds out, then stage 1; the other half, stage 2's inputs on its held-out shapes, then
         stage 2 (which needs both). Small networks use a second core better this way than
         through torch's threads within each operation; the networks are the same."""
-        usable = [i for i, (x, lab) in enumerate(zip(inputs, labels)) if x is not None and lab is not None]
+        usable = [i for i, (x, lab) in enumerate(zip(inputs, labels))
+                  if x is not None and lab is not None and self.mixed[i]]
         if self.cuts_need_boundary:
             self.fit_boundary(labels)
 
@@ -510,8 +519,9 @@ class _Networks:
                    threads=threads)
 
     def _held_out(self, i: int) -> FaceClassifier | None:
-        """The trained first-stage network that did not see shape i's labels, if any."""
-        if not self.halves:
+        """The trained first-stage network that did not see shape i's labels, if any (none for
+        a shape without scribbles: no network saw its labels)."""
+        if not self.halves or not self.mixed[i]:
             return None
         half = self.halves[self.fold_of[i]]
         return half if half.trained else None
@@ -560,7 +570,8 @@ class _Networks:
 
 
 class _FaceProblem:
-    """The face-level energy of every shape of the collection (``method="face"``)."""
+    """The face-level energy of every scribbled shape of the collection (``method="face"``); the
+    shapes without scribbles are cut as new shapes are, with the round's model."""
 
     def __init__(self, shapes, label_names, params: SegmentParams):
         self.shapes, self.label_names = list(shapes), tuple(label_names)
@@ -569,7 +580,8 @@ class _FaceProblem:
         self.energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes]
         self._boundary: BoundaryClassifier | None = None
 
-    def trains_on(self, i: int) -> bool:
+    def segments(self, i: int) -> bool:
+        """Whether the cuts label shape i (here every shape)."""
         return True
 
     def initial_labels(self) -> list[np.ndarray | None]:
@@ -587,12 +599,15 @@ class _FaceProblem:
                 self.energies[i] = FaceEnergy(s.graph, s.scribble, k, p, s.sdf, model.boundary_proba(s))
 
     def cut(self, labels, logp) -> list[np.ndarray]:
-        return [e.cut(lp, init=lab) for e, lab, lp in zip(self.energies, labels, logp)]
+        """The scribbled shapes' cuts from their labels; the others' from scratch, as
+        :func:`~scribbleseg_core.engine.predict.predict_shape` cuts a new shape."""
+        return [e.cut(lp, init=lab if e.is_scribbled else None) for e, lab, lp in zip(self.energies, labels, logp)]
 
     def energy(self, labels, logp) -> EnergyTerms:
+        """Summed over the scribbled shapes that have labels."""
         total = EnergyTerms(0.0, 0.0 if logp is not None else float("nan"), 0.0)
         for i, (e, lab) in enumerate(zip(self.energies, labels)):
-            if lab is not None:
+            if lab is not None and e.is_scribbled:
                 total = total + EnergyTerms(*e.terms(lab, None if logp is None else logp[i]))
         return total
 
@@ -618,7 +633,8 @@ class _PatchProblem:
         self.P = [s.patch_matrix() if s.is_scribbled else None for s in shapes]
         self.y: list[np.ndarray | None] = [None] * len(shapes)
 
-    def trains_on(self, i: int) -> bool:
+    def segments(self, i: int) -> bool:
+        """Whether the cuts label shape i (here the scribbled shapes)."""
         return self.shapes[i].is_scribbled
 
     def use(self, model: TrainedModel) -> None:

@@ -104,7 +104,8 @@ def collection_run(
         After each optimization step; the last one's snapshot is done and has the model.
     Predicted
         For each shape without scribbles, once the model is trained (method ``"paper"``;
-        with ``"face"`` every shape takes part in the optimization).
+        with ``"face"`` every round's cut predicts them, and their labels come with the
+        :class:`StepDone` messages).
     Scored
         For every shape, at the end: the margin of its labels under a network that did not
         see them (:attr:`~scribbleseg_core.engine.optimize.Snapshot.held_out`), else under

@@ -8,13 +8,10 @@ test
     K folds by sorted id: train on the other folds' scribbled shapes, predict the held-out
     fold without its scribbles; every shape predicted once (Table 2 used leave-one-out:
     ``--folds 20``).
-scribbled
-    Only N shapes keep their scribbles (drawn with a fixed, reported seed); train on them,
-    predict and score the others.
 collection
-    As ``scribbled``, but every shape of the category takes part in the one run (the
-    others without their scribbles), and the others are scored: the app's *Segment
-    collection*.
+    Only N shapes keep their scribbles (drawn with a fixed, reported seed); one run on the
+    whole category, as the app's *Segment collection*: the painted shapes are optimized and
+    the others, predicted at every round's cut, are scored.
 given
     Train on the shapes that have a scribble file and score them (``given_scribbled``);
     predict and score the others (``given_unscribbled``). For collections like the demo
@@ -56,7 +53,7 @@ from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.signatures.features import cached_face_features
 
 #: The benchmark's modes (see the module docstring).
-MODES: tuple[str, ...] = ("train", "test", "scribbled", "collection", "given")
+MODES: tuple[str, ...] = ("train", "test", "collection", "given")
 #: What the painted shapes are given: their scribbles, or their full ground truth (the
 #: learner's ceiling, comparable with fully supervised methods).
 LABEL_SOURCES: tuple[str, ...] = ("scribbles", "truth")
@@ -185,26 +182,22 @@ def run_mode(items, names, mode: str, params: SegmentParams, *, folds=5, scribbl
             for i in np.flatnonzero(fold_of == f):
                 s = without(i)
                 out[int(i)] = s.mesh.labels_to_file(predict(snap.model, s))
-    elif mode in ("scribbled", "given", "collection"):
-        if mode == "given":
-            chosen = np.array([i for i in range(n) if scr[i] is not None])
-        else:
-            chosen = np.sort(np.random.default_rng(seed).choice(n, size=scribbled, replace=False))
-        if mode == "collection":  # every shape takes part; the unpainted ones without their scribbles
-            shapes = [with_scribbles(i) if i in chosen else without(i) for i in range(n)]
-            snap = _run(shapes, names, params, clock)
-            for i in sorted(set(range(n)) - set(chosen.tolist())):
-                labels = snap.labels[i] if (snap.labels[i] >= 0).any() else predict(snap.model, shapes[i])
-                out[i] = shapes[i].mesh.labels_to_file(labels)
-            return out, clock
+    elif mode == "collection":  # one run on every shape; the unpainted ones without their scribbles
+        chosen = np.sort(np.random.default_rng(seed).choice(n, size=scribbled, replace=False))
+        shapes = [with_scribbles(i) if i in chosen else without(i) for i in range(n)]
+        snap = _run(shapes, names, params, clock)
+        for i in sorted(set(range(n)) - set(chosen.tolist())):  # method "paper" leaves them to predict
+            labels = snap.labels[i] if (snap.labels[i] >= 0).any() else predict(snap.model, shapes[i])
+            out[i] = shapes[i].mesh.labels_to_file(labels)
+    elif mode == "given":
+        chosen = [i for i in range(n) if scr[i] is not None]
         shapes = [with_scribbles(i) for i in chosen]
         snap = _run(shapes, names, params, clock)
-        if mode == "given":
-            for i, s, lab in zip(chosen, shapes, snap.labels):
-                out[("given_scribbled", int(i))] = s.mesh.labels_to_file(lab)
-        for i in sorted(set(range(n)) - set(chosen.tolist())):
+        for i, s, lab in zip(chosen, shapes, snap.labels):
+            out[("given_scribbled", int(i))] = s.mesh.labels_to_file(lab)
+        for i in sorted(set(range(n)) - set(chosen)):
             s = without(i)
-            out[("given_unscribbled", i) if mode == "given" else i] = s.mesh.labels_to_file(predict(snap.model, s))
+            out[("given_unscribbled", i)] = s.mesh.labels_to_file(predict(snap.model, s))
     else:
         raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
     return out, clock
@@ -228,8 +221,8 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
                            "propagation": asdict(params.propagation),
                            "network": {k: v for k, v in asdict(params.network).items() if k != "threads"}},
               "categories": {}}
-    runs = [(m, None) for m in modes if m not in ("scribbled", "collection")]
-    runs += [(m, k) for m in ("scribbled", "collection") if m in modes for k in scribbled]
+    runs = [(m, None) for m in modes if m != "collection"]
+    runs += [("collection", k) for k in scribbled if "collection" in modes]
     for cat in cats:
         items, names, t_feat = load_category(root, cat)
         entry = {"shapes": len(items), "feature_seconds_per_shape": t_feat / len(items)}

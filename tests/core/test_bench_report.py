@@ -38,9 +38,9 @@ def planted_root(tmp_path_factory):
     return root
 
 
-def test_train_test_scribbled_report(tmp_path, planted_root):
+def test_train_test_collection_report(tmp_path, planted_root):
     out = tmp_path / "out"
-    report = bench(planted_root, out, modes=("train", "test", "scribbled", "collection"), folds=2, scribbled=(2,),
+    report = bench(planted_root, out, modes=("train", "test", "collection"), folds=2, scribbled=(2,),
                    params=FAST)
     entry = report["categories"]["Planted"]
     assert report["verified"] is True
@@ -48,14 +48,13 @@ def test_train_test_scribbled_report(tmp_path, planted_root):
     assert entry["train"]["summary"]["ri_error"] < 0.08
     assert entry["train"]["summary"]["scored_shapes"] == 4
     assert entry["test"]["summary"]["scored_shapes"] == 4  # every shape predicted once
-    assert entry["scribbled_2"]["summary"]["scored_shapes"] == 2
     assert entry["collection_2"]["summary"]["scored_shapes"] == 2  # one run on all 4, the 2 unpainted scored
     # a human segmentation equal to the truth, split into components, scores like the label map
     assert entry["train"]["summary"]["ri_error_human"] >= entry["train"]["summary"]["ri_error"] - 1e-9
     for key in ("gce", "lce", "hamming", "cut_discrepancy", "accuracy_area", "ri_error_area"):
         assert np.isfinite(entry["train"]["summary"][key])
     md = (out / "report.md").read_text()
-    assert md.count("| Planted |") == 9  # a row per mode, the cost table, and a row per mode of the time table
+    assert md.count("| Planted |") == 7  # a row per mode, the cost table, and a row per mode of the time table
     seconds = entry["test"]["summary"]["seconds"]
     assert seconds["training"] > 0 and seconds["prediction"] > 0 and seconds["shapes"] > 0
     assert json.loads((out / "report.json").read_text())["verified"] is True

@@ -66,9 +66,10 @@ def test_scribbled_faces_keep_their_label(collection, paper):
 
 
 def test_each_snapshot_carries_the_energy_of_its_labels(collection):
-    """The snapshot's energy is the face energy of the labels it shows, under its network
-    (without cross-fitting, the model is the whole network term) and, on shapes without
-    scribbles, its learned boundary term."""
+    """The snapshot's energy is the face energy of the scribbled shapes' labels under its
+    network (without cross-fitting, the model is the whole network term); the labels of the
+    shape without scribbles are its prediction by the snapshot's model (the learned boundary
+    term its smoothness), and count in no energy."""
     shapes, _, _ = collection
     assert not all(s.is_scribbled for s in shapes)
     params = dataclasses.replace(PARAMS, cross_fit=0.0)
@@ -76,12 +77,34 @@ def test_each_snapshot_carries_the_energy_of_its_labels(collection):
     k = len(LABELS)
     assert snaps[-1].model.boundary is not None
     for snap in snaps[1:-1]:
-        energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf, snap.model.boundary_proba(s))
-                    for s in shapes]
-        logp = [snap.model.log_proba(s) for s in shapes]
-        terms = [e.terms(lab, lp) for e, lab, lp in zip(energies, snap.labels, logp) if (lab >= 0).any()]
+        energies = [FaceEnergy(s.graph, s.scribble, k, params.propagation, s.sdf) for s in shapes if s.is_scribbled]
+        logp = [snap.model.log_proba(s) for s in shapes if s.is_scribbled]
+        labels = [lab for s, lab in zip(shapes, snap.labels) if s.is_scribbled]
+        terms = [e.terms(lab, lp) for e, lab, lp in zip(energies, labels, logp)]
         np.testing.assert_allclose(sum(sum(t) for t in terms), snap.energy.total, rtol=1e-6)
+        if snap.phase == "graphcut":
+            np.testing.assert_array_equal(snap.labels[3], predict_shape(snap.model, shapes[3]))
     assert snaps[-1].energy == [s for s in snaps if s.phase == "graphcut"][-1].energy
+
+
+def test_shapes_without_scribbles_train_nothing(collection):
+    """The networks and the boundary classifier learn from the scribbled shapes' labels alone:
+    whatever labels a shape without scribbles is given, the trained networks are the same."""
+    from scribbleseg_core.engine.optimize import _Networks
+
+    shapes, gts, snaps = collection
+    inputs = [PARAMS.network_input(s) for s in shapes]
+    labels = [np.array(lab) for lab in snaps[-1].labels]
+    scribbled = [s.is_scribbled for s in shapes]
+    weights = []
+    for other in (labels[3], np.zeros_like(labels[3])):  # the unpainted shape's labels, right or all one label
+        net = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, scribbled, None)
+        net.fit(inputs, labels[:3] + [other])
+        weights.append([p.detach().numpy().copy() for p in net.main.stage1.net.parameters()])
+        assert net.held_out_log_proba(inputs)[3] is None  # no network saw its labels
+        assert [h.trained for h in net.halves] == [True, True]  # scribbled shapes 0, 2 and 1 in the halves
+    for a, b in zip(*weights):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_cross_fitting_mixes_in_networks_that_never_saw_the_shape(collection):
@@ -390,7 +413,8 @@ def test_a_run_continues_the_networks_of_an_earlier_one(collection, monkeypatch)
 
     shapes, gts, snaps = collection
     last = snaps[-1]
-    assert len(last.model.halves) == 2 and last.held_out is not None and all(h is not None for h in last.held_out)
+    assert len(last.model.halves) == 2 and last.held_out is not None
+    assert [h is not None for h in last.held_out] == [s.is_scribbled for s in shapes]
     fits = []
     fit = FaceClassifier.fit
     monkeypatch.setattr(FaceClassifier, "fit", lambda self, X, y, warm=False, **kw: fits.append(warm and self.trained)
