@@ -56,7 +56,7 @@ def until(condition, dispatcher, timeout=20.0):
 
 class FakeRun:
     """Stands in for the pipeline's ``collection_run``: features, then (once `gate` is set) one
-    cut labelling every shape with `label`, then the end with a model."""
+    training and one cut labelling every shape with `label`, then the end with a model."""
 
     def __init__(self, label=1):
         self.gate, self.label, self.closed = threading.Event(), label, threading.Event()
@@ -70,6 +70,7 @@ class FakeRun:
             assert self.gate.wait(10)
             labels = tuple(np.full(meshes[i].num_file_faces, self.label) for i in range(n))
             e = EnergyTerms(3.0, 2.0, 1.0)
+            yield StepDone(Snapshot(1, "train", e, labels, (False,) * n, 0.1, "model"), (), ())
             yield StepDone(Snapshot(1, "graphcut", e, labels, (True,) * n, 0.1, "model"), tuple(range(n)), labels)
             yield StepDone(Snapshot(1, "done", e, labels, (False,) * n, 0.2, "model"), tuple(range(n)), labels)
             for i in range(n):
@@ -99,7 +100,7 @@ def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
     assert ended[0].startswith("segmentation finished in")
     assert [e.state for e in model.shapes] == ["labeled", "predicted", "predicted"]
     assert all((e.labels == 1).all() for e in model.shapes) and model.trained_model == "model"
-    assert [(s.phase, s.energy.total) for s in runs.history.steps] == [("graphcut", 6.0)]
+    assert [(s.phase, s.energy.total) for s in runs.history.steps] == [("train", 6.0), ("graphcut", 6.0)]
     assert runs.changed == {0, 1, 2} and runs.history.marks == [(0, "round 1")]
     # the confidence of every shape and where to paint next
     assert all(e.mean_confidence == 0.5 and e.confidence[-1] == 1.0 for e in model.shapes)
