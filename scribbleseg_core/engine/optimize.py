@@ -312,7 +312,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         t = t if it == 1 else time.perf_counter()
         previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
-        net.fit(inputs, [lab if t else None for lab, t in zip(labels, taught)])
+        net.fit(inputs, [lab if painted else None for lab, painted in zip(labels, taught)])
         new_logp = net.log_proba(inputs)
         new_model = net.model(problem)
         problem.use(new_model)
@@ -329,7 +329,8 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         changed = tuple(b is not None and (a is None or not np.array_equal(a, b)) for a, b in zip(labels, new))
         labels, energy = new, problem.energy(new, logp)
         yield Snapshot(it, "graphcut", energy, _frozen(labels, problem.shapes), changed, time.perf_counter() - t, model)
-        converged = not any(c and t for c, t in zip(changed, taught)) or energy.total > best * (1 - TOLERANCE)
+        converged = (not any(c and painted for c, painted in zip(changed, taught))
+                     or energy.total > best * (1 - TOLERANCE))
         best = min(best, energy.total)
         if converged:
             break
@@ -441,8 +442,9 @@ class _Networks:
 
     @property
     def cuts_need_boundary(self) -> bool:
-        """Whether a shape without scribbles takes part, so that every round's cut needs the
-        boundary classifier; otherwise only the final model does (:meth:`fit_boundary` once)."""
+        """Whether the collection has a shape without scribbles, which every round's cut labels
+        with the boundary classifier; otherwise only the final model needs it (:meth:`fit_boundary`
+        once)."""
         return self.edges_of is not None and not all(self.mixed)
 
     @property
