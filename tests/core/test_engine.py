@@ -88,8 +88,8 @@ def test_each_snapshot_carries_the_energy_of_its_labels(collection):
 
 
 def test_shapes_without_scribbles_train_nothing(collection):
-    """The networks and the boundary classifier learn from the scribbled shapes' labels alone:
-    whatever labels a shape without scribbles is given, the trained networks are the same."""
+    """The networks learn from the scribbled shapes' labels alone: whatever labels a shape
+    without scribbles is given, the trained networks are the same."""
     from scribbleseg_core.engine.optimize import _Networks
 
     shapes, gts, snaps = collection
@@ -102,7 +102,7 @@ def test_shapes_without_scribbles_train_nothing(collection):
         net.fit(inputs, labels[:3] + [other])
         weights.append([p.detach().numpy().copy() for p in net.main.stage1.net.parameters()])
         assert net.held_out_log_proba(inputs)[3] is None  # no network saw its labels
-        assert [h.trained for h in net.halves] == [True, True]  # scribbled shapes 0, 2 and 1 in the halves
+        assert [h.trained for h in net.halves] == [True, True]  # the halves split shapes 0 and 2 from 1
     for a, b in zip(*weights):
         np.testing.assert_array_equal(a, b)
 
