@@ -312,7 +312,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         t = t if it == 1 else time.perf_counter()
         previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
-        net.fit(inputs, [lab if painted else None for lab, painted in zip(labels, taught)])
+        net.fit(inputs, labels)  # the networks learn from the shapes `taught` only
         new_logp = net.log_proba(inputs)
         new_model = net.model(problem)
         problem.use(new_model)
