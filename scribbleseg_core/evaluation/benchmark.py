@@ -345,7 +345,7 @@ def markdown(report: dict, root: Path) -> str:
     t2 = paper.get("table2_leave_one_out", {})
     lines = ["# scribbleseg on PSB", "", f"Settings: `{json.dumps(report['settings'])}`", ""]
     keys = {k for c in report["categories"].values() for k in c if isinstance(c[k], dict)}
-    # train, test, then scribbled_N by N (not scribbled_10 before scribbled_3)
+    # the modes by name, collection_N by N (not collection_10 before collection_3)
     keys = sorted(keys, key=lambda k: (k.rstrip("0123456789"), int(k[len(k.rstrip("0123456789")):] or 0)))
     for key in keys:
         ref = t1 if key == "train" else t2 if key == "test" else {}
