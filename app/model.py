@@ -22,7 +22,7 @@ ShapeState = Literal["untouched", "scribbled", "labeled", "predicted", "error"]
 
 @dataclass(frozen=True, eq=False)
 class Suggestion:
-    """Where a stroke is expected to help most after a run: shape `index`, the unconfident
+    """The largest unsure region after a run (`engine.guidance.suggest`): shape `index`, the unconfident
     region's file faces (k,), and the file face at its heart."""
 
     index: int
