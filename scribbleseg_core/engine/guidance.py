@@ -1,4 +1,4 @@
-"""How sure the model is of each face, and where a stroke would help most.
+"""How sure the model is of each face, and where it is least sure.
 
 The confidence of a face is the margin of its label under the learner's probabilities,
 ``P(y) − max_{l ≠ y} P(l)`` clipped to [0, 1]: near 1 where the learner is sure of the label
@@ -6,7 +6,7 @@ shown, 0 where it hesitates between two labels or where the graph cut overruled 
 smoothing and the network disagree). Painted faces have confidence 1.
 
 :func:`suggest` picks the connected region of unconfident faces that weighs most on its
-shape (area times doubt): the place where a stroke is expected to help most.
+shape (area times doubt), where the app suggests the next stroke.
 """
 
 from __future__ import annotations
@@ -115,7 +115,7 @@ def suggest(
     *,
     threshold: float = UNCONFIDENT,
 ) -> Suggestion | None:
-    """The region of unconfident faces where a stroke is expected to help most.
+    """The region of unconfident faces that weighs most on its shape (area times doubt).
 
     Parameters
     ----------

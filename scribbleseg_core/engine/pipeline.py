@@ -63,7 +63,7 @@ class Scored:
 
 @dataclass(frozen=True, eq=False)
 class Suggested:
-    """Where a stroke is expected to help most (:func:`~scribbleseg_core.engine.guidance.suggest`):
+    """The largest unsure region after a run (:func:`~scribbleseg_core.engine.guidance.suggest`):
     shape `index`, the unconfident region's file faces, and the file face to paint at."""
 
     index: int
