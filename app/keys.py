@@ -52,7 +52,7 @@ KEYS: tuple[Key, ...] = (
     Key("C", "C", "confidence", "show the confidence of the last run, or the labels"),
     Key("V", "V", "next view", "next Show mode (labels, scribbles, result, confidence, signatures)"),
     Key("Shift+V", "V", "previous view", "previous Show mode"),
-    Key("N", "N", "suggestion", "go to the largest unsure region (after a run)"),
+    Key("N", "N", "suggestion", "go to the unsure region that weighs most on its shape (after a run)"),
     Key("A", "A", "accept", "accept the current shape's result as its labels (then correct it)"),
     Key("PgDown", "PageDown", "next shape", "next shape"),
     Key("PgUp", "PageUp", "previous shape", "previous shape"),

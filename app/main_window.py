@@ -323,7 +323,7 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage("nothing to accept: this shape has no result, or every face is painted")
 
     def go_to_suggestion(self) -> None:
-        """Show the shape and turn the camera to its largest unsure region (key N)."""
+        """Show the shape and turn the camera to the unsure region that weighs most on it (key N)."""
         s = self.model.suggestion
         if s is None:
             self.statusBar().showMessage("no suggestion: run 'Segment collection' first (or every face is confident)")

@@ -22,8 +22,8 @@ ShapeState = Literal["untouched", "scribbled", "labeled", "predicted", "error"]
 
 @dataclass(frozen=True, eq=False)
 class Suggestion:
-    """The largest unsure region after a run (`engine.guidance.suggest`): shape `index`, the unconfident
-    region's file faces (k,), and the file face at its heart."""
+    """The unsure region that weighs most on its shape after a run (`engine.guidance.suggest`):
+    shape `index`, the region's file faces (k,), and the file face at its heart."""
 
     index: int
     faces: np.ndarray

@@ -182,7 +182,7 @@ def _cmd_segment(args) -> int:
         print(f"segmented {len(last.indices) + len(predicted)} shapes ({painted} with scribbles) "
               f"in {time.perf_counter() - t0:.1f} s; wrote {out}", file=sys.stderr)
         if hint is not None:
-            print(f"the largest unsure region is on {meshes[hint.index].path.name}, around face {hint.file_face} "
+            print(f"the unsure region that weighs most is on {meshes[hint.index].path.name}, around face {hint.file_face} "
                   f"({len(hint.file_faces)} unconfident faces)", file=sys.stderr)
     return 0
 

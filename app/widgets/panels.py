@@ -234,7 +234,7 @@ class RunPanel(QWidget):
         self.accept_button.setToolTip("The current shape's result becomes its labels: correct it with the brush "
                                       "or the fill, and the next run trains on it")
         self.suggest_button = QPushButton("Paint here next (N)")
-        self.suggest_button.setToolTip("Show the largest region where the model is unsure (after a run)")
+        self.suggest_button.setToolTip("Show the unsure region that weighs most on its shape: area times doubt (after a run)")
         self.suggest_button.setEnabled(False)
         self.progress = QProgressBar()
         self.progress.setFormat("%v / %m")

@@ -63,7 +63,7 @@ class Scored:
 
 @dataclass(frozen=True, eq=False)
 class Suggested:
-    """The largest unsure region after a run (:func:`~scribbleseg_core.engine.guidance.suggest`):
+    """The unsure region that weighs most on its shape (:func:`~scribbleseg_core.engine.guidance.suggest`):
     shape `index`, the unconfident region's file faces, and the file face to paint at."""
 
     index: int
