@@ -19,7 +19,7 @@ Usage::
 
     python scripts/learner_alone.py OUT.json [CATEGORY ...] [--seed 0] [--threads N] [--folds 5]
 
-Two processes on half the categories each, ``--threads 1``, take about 10 minutes on 2
+Two processes on half the categories each, ``--threads 1``, take about 12 minutes on 2
 cores with the signatures cached; merge by reading both files.
 """
 
