@@ -1,10 +1,9 @@
 """The learner alone on PSB, trained on full labels: no alternation.
 
 Compares learners apart from the alternation. For every category, 5 folds by sorted id (as
-``scribbleseg bench --mode test --labels truth``): the learner
-(:func:`~scribbleseg_core.engine.optimize.fit_learner`, default parameters) and the learned
-boundary term (:class:`~scribbleseg_core.engine.boundary.BoundaryClassifier`) are trained on
-the ground-truth labels of the other folds' shapes, and every held-out shape is labeled twice:
+``scribbleseg bench --mode test --labels truth``): the learner and the learned boundary term
+(:func:`~scribbleseg_core.engine.optimize.fit_model`, default parameters) are trained on the
+ground-truth labels of the other folds' shapes, and every held-out shape is labeled twice:
 
 * ``argmax``: every face takes the label of highest probability (no graph cut);
 * ``cut``: the graph cut a new shape gets (:func:`~scribbleseg_core.engine.predict.predict_shape`
@@ -33,8 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scribbleseg_core.engine.boundary import BoundaryClassifier, edge_features, label_boundaries
-from scribbleseg_core.engine.optimize import SegmentParams, TrainedModel, fit_learner
+from scribbleseg_core.engine.optimize import SegmentParams, fit_model
 from scribbleseg_core.engine.predict import predict_shape
 from scribbleseg_core.engine.shape import prepare_shape
 from scribbleseg_core.evaluation.benchmark import load_category
@@ -51,12 +49,7 @@ def run_category(root: Path, cat: str, params: SegmentParams, folds: int) -> dic
     errors: dict[str, list[float]] = {"argmax": [], "cut": []}
     for f in range(folds):
         train = np.flatnonzero(fold_of != f)
-        learner = fit_learner([shapes[i] for i in train], [truth[i] for i in train], len(names), params)
-        boundary = BoundaryClassifier.fit(
-            ((edge_features(shapes[i].graph, shapes[i].X, params.network_input(shapes[i])),
-              label_boundaries(shapes[i].graph, truth[i])) for i in train),
-            seed=params.network.seed, threads=params.network.threads)
-        model = TrainedModel(learner, tuple(names), params, boundary=boundary)
+        model = fit_model([shapes[i] for i in train], [truth[i] for i in train], names, params)
         for i in np.flatnonzero(fold_of == f):
             logp = model.log_proba(shapes[i])
             for kind, labels in (("argmax", logp.argmax(1)), ("cut", predict_shape(model, shapes[i], logp))):

@@ -298,11 +298,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     share = params.cross_fit if params.method == "face" else 0.0
     shapes = problem.shapes
     context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
-    edges_of = None
-    if params.method == "face" and params.propagation.boundary > 0:
-        def edges_of(i: int, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            g = shapes[i].graph
-            return edge_features(g, shapes[i].X, inputs[i]), label_boundaries(g, lab)
+    edges_of = _edges_of(shapes, inputs) if params.method == "face" and params.propagation.boundary > 0 else None
     net = _Networks(d, len(problem.label_names), params.network, share, taught, context_of, edges_of)
     if warm is not None and _continues(warm, net.main, problem.label_names, params):
         net.continue_from(warm, params.network.threads)
@@ -341,31 +337,48 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
                    model or net.model(problem), tuple(net.held_out_log_proba(inputs)))
 
 
-def fit_learner(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], num_labels: int,
-                params: SegmentParams = SegmentParams()) -> Learner:
-    """The learner of `params` trained once on given labels, without the alternation or cuts.
+def fit_model(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], label_names: Sequence[str],
+              params: SegmentParams = SegmentParams()) -> TrainedModel:
+    """The model of `params` trained once on given labels, without the alternation or cuts.
 
-    What the alternation's training step does with fixed labels: stage 1 on every shape, and
+    What the alternation's training step does with fixed labels: stage 1 on every shape,
     (with label context) stage 2 on stage-1 probabilities from the networks trained on the
-    other half of the shapes. It compares learners apart from the energy around them
+    other half of the shapes, and (``propagation.boundary > 0``) the learned boundary term on
+    the labels' boundaries. It compares learners apart from the alternation
     (``scripts/learner_alone.py``).
 
     Parameters
     ----------
     shapes : sequence of ShapeData
     labels : sequence of (m_s,) int ndarray
-        Label per face of each shape (-1: not trained on), ids below `num_labels`.
-    num_labels : int
+        Label per face of each shape (-1: not trained on), ids below ``len(label_names)``.
+    label_names : sequence of str
     params : SegmentParams
-        Its network, inputs and stages (``method="face"``).
+        Its network, inputs, stages and boundary term (``method="face"``).
     """
     if len(shapes) != len(labels):
         raise ValueError(f"{len(shapes)} shapes but {len(labels)} label arrays")
     inputs = [params.network_input(s) for s in shapes]
     context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
-    net = _Networks(inputs[0].shape[1], num_labels, params.network, 0.0, [True] * len(shapes), context_of)
-    net.fit(inputs, [np.asarray(lab, dtype=np.int64) for lab in labels])
-    return net.main
+    edges_of = _edges_of(shapes, inputs) if params.propagation.boundary > 0 else None
+    net = _Networks(inputs[0].shape[1], len(label_names), params.network, 0.0, [True] * len(shapes), context_of,
+                    edges_of)
+    labels = [np.asarray(lab, dtype=np.int64) for lab in labels]
+    net.fit(inputs, labels)
+    net.fit_boundary(labels)  # every shape is labeled: fit does not train it
+    return TrainedModel(net.main, tuple(label_names), params, halves=tuple(net.halves), boundary=net.boundary)
+
+
+def _edges_of(shapes: Sequence[ShapeData], inputs):
+    """``edges_of(i, labels)`` for :class:`_Networks`: shape i's
+    :func:`~scribbleseg_core.engine.boundary.edge_features` (from its network input
+    ``inputs[i]``) and the :func:`~scribbleseg_core.engine.boundary.label_boundaries` of `labels`."""
+
+    def edges_of(i: int, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        g = shapes[i].graph
+        return edge_features(g, shapes[i].X, inputs[i]), label_boundaries(g, lab)
+
+    return edges_of
 
 
 def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentParams) -> bool:

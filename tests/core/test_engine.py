@@ -11,7 +11,7 @@ import pytest
 from scribbleseg_core.engine.energy import scribble_unary
 from scribbleseg_core.engine.graphcut import INF
 from scribbleseg_core.engine.network import NetworkParams
-from scribbleseg_core.engine.optimize import SegmentParams, fit_learner, segment_collection
+from scribbleseg_core.engine.optimize import SegmentParams, fit_model, segment_collection
 from scribbleseg_core.engine.predict import predict_shape
 from scribbleseg_core.engine.propagate import FaceEnergy, propagate_shape
 from scribbleseg_core.engine.shape import prepare_shape
@@ -237,16 +237,18 @@ def test_unseen_shape_is_predicted_as_the_collection_labeled_it(collection):
     np.testing.assert_array_equal(predict_shape(one, shapes[3]), labels)
 
 
-def test_fit_learner_trains_both_stages_on_given_labels(collection):
+def test_fit_model_trains_both_stages_and_the_boundary_term_on_given_labels(collection):
     shapes, gts, _ = collection
-    learner = fit_learner(shapes[:3], gts[:3], len(LABELS), PARAMS)
+    model = fit_model(shapes[:3], gts[:3], LABELS, PARAMS)
+    learner = model.learner
+    assert model.boundary is not None and predict_shape(model, shapes[3]).shape == gts[3].shape
     assert learner.stage2 is not None and learner.stage2.num_inputs == learner.stage1.num_inputs + 2 * len(LABELS)
     labels = learner.log_proba(PARAMS.network_input(shapes[3]), shapes[3].label_context).argmax(1)
     assert (labels == gts[3]).mean() >= 0.9  # the held-out shape, without a cut
-    alone = fit_learner(shapes[:3], gts[:3], len(LABELS), dataclasses.replace(PARAMS, label_context=False))
+    alone = fit_model(shapes[:3], gts[:3], LABELS, dataclasses.replace(PARAMS, label_context=False)).learner
     assert alone.stage2 is None
     with pytest.raises(ValueError, match="3 shapes but 2"):
-        fit_learner(shapes[:3], gts[:2], len(LABELS), PARAMS)
+        fit_model(shapes[:3], gts[:2], LABELS, PARAMS)
 
 
 def test_paper_variant_is_the_patch_level_alternation(collection, paper):
