@@ -14,7 +14,8 @@ from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.infra.cache import ArrayCache, hash_arrays
 from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
 from scribbleseg_core.signatures.features import NUM_FEATURES, SDF_COLUMN, FeatureParams, cached_face_features
-from scribbleseg_core.signatures.geodesic import LabelContext, cached_source_distances
+from scribbleseg_core.signatures.geodesic import LabelContext, SourceDistances, cached_source_distances
+from scribbleseg_core.signatures.self_similarity import NUM_BANDS
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,8 +70,18 @@ class ShapeData:
         if key not in self._cache:
             mesh = (self.mesh.normalized(), self.mesh.F) if local_shape else None
             self._cache[key] = network_input(self.X, self.area, self.graph, context_scales, local_shape_of=mesh,
+                                             sources=self.source_distances if context_scales else None,
                                              cache=self.context_cache)
         return self._cache[key]
+
+    @property
+    def source_distances(self) -> SourceDistances:
+        """Geodesic distances from a sample of the surface to every face
+        (:func:`~scribbleseg_core.signatures.geodesic.cached_source_distances`, cached on
+        disk), kept."""
+        if "sources" not in self._cache:
+            self._cache["sources"] = cached_source_distances(self.mesh.normalized(), self.mesh.F, self.geodesic_cache)
+        return self._cache["sources"]
 
     @property
     def label_context(self) -> LabelContext:
@@ -78,8 +89,7 @@ class ShapeData:
         sample of the surface (:func:`~scribbleseg_core.signatures.geodesic.cached_source_distances`,
         cached on disk) and kept."""
         if "label_context" not in self._cache:
-            dist = cached_source_distances(self.mesh.normalized(), self.mesh.F, self.geodesic_cache)
-            self._cache["label_context"] = LabelContext.of(dist, self.area)
+            self._cache["label_context"] = LabelContext.of(self.source_distances, self.area)
         return self._cache["label_context"]
 
     @property
@@ -112,8 +122,11 @@ class ShapeData:
 
 def network_input_width(num_scales: int, local_shape: bool) -> int:
     """d, the length of :func:`network_input` per face: the 22 signatures, them diffused
-    at each of `num_scales` scales, and 5 local-shape values a scale with `local_shape`."""
-    return NUM_FEATURES * (1 + num_scales) + (LOCAL_SHAPE_PER_SCALE * num_scales if local_shape else 0)
+    at each of `num_scales` scales, 5 local-shape values a scale with `local_shape`, and
+    the self-similarity's bands with any scale (:class:`ShapeData` gives it the geodesic
+    sample)."""
+    return (NUM_FEATURES * (1 + num_scales) + (NUM_BANDS if num_scales else 0)
+            + (LOCAL_SHAPE_PER_SCALE * num_scales if local_shape else 0))
 
 
 def network_input(
@@ -123,15 +136,17 @@ def network_input(
     context_scales: tuple[float, ...] = (),
     *,
     local_shape_of: tuple[np.ndarray, np.ndarray] | None = None,
+    sources: SourceDistances | None = None,
     cache: ArrayCache | None = None,
 ) -> np.ndarray:
     """The classifier's input per face: the 22 signatures, then the same diffused at each
-    of `context_scales`, then (given the mesh) the local shape at each of them (see
-    :mod:`scribbleseg_core.signatures.context`).
+    of `context_scales` (see :mod:`scribbleseg_core.signatures.context`), then (given the
+    mesh) the local shape at each scale, then (given the geodesic sources) the
+    self-similarity of the signatures diffused at the first scale
+    (:mod:`scribbleseg_core.signatures.self_similarity`).
 
-    The diffused parts are cached on disk (`cache`, default the user cache's ``context``
-    folder): their sparse factorizations cost 0.1–1 s a shape and hold the interpreter
-    meanwhile.
+    The parts beyond the signatures are cached on disk (`cache`, default the user cache's
+    ``context`` folder): each costs 0.1–2 s a shape and holds the interpreter meanwhile.
 
     Parameters
     ----------
@@ -142,27 +157,41 @@ def network_input(
     context_scales : tuple of float
     local_shape_of : ((n, 3) float64 ndarray, (m, 3) int64 ndarray), optional
         V and F of the unit-area mesh: append :func:`~scribbleseg_core.signatures.context.local_shape`.
+    sources : SourceDistances, optional
+        The shape's geodesic sample: append the
+        :func:`~scribbleseg_core.signatures.self_similarity.self_similarity` (with at least
+        one context scale).
 
     Returns
     -------
-    (m, 22 · (1 + s) + 5 · s) float64 ndarray
-        s = len(context_scales); the last 5 · s columns only with `local_shape_of`.
+    (m, 22 · (1 + s) + 5 · s + b) float64 ndarray
+        s = len(context_scales); the 5 · s local-shape columns only with `local_shape_of`;
+        b = 5 self-similarity bands with `sources` and s ≥ 1, else 0.
     """
     from scribbleseg_core.signatures.context import diffuse_face_values, local_shape
+    from scribbleseg_core.signatures.self_similarity import self_similarity
 
     scales = tuple(float(t) for t in context_scales)
     cache = cache or ArrayCache(kind="context")
-    parts = [X, cache.get_or_compute(
+    diffused = cache.get_or_compute(
         hash_arrays(X, area, graph.pairs, meta={"context": list(scales), "version": 1}),
         lambda: diffuse_face_values(graph, area, X, scales),
         shape=(len(X), X.shape[1] * len(scales)),
-    )]
+    )
+    parts = [X, diffused]
     if local_shape_of is not None:
         V, F = local_shape_of
         parts.append(cache.get_or_compute(
             hash_arrays(V, F, meta={"local_shape": list(scales), "version": 1}),
             lambda: local_shape(V, F, graph, area, scales),
             shape=(len(X), LOCAL_SHAPE_PER_SCALE * len(scales)),
+        ))
+    if sources is not None and scales:
+        first = diffused[:, : X.shape[1]]
+        parts.append(cache.get_or_compute(
+            hash_arrays(first, area, sources.D, meta={"self_similarity": 1}),
+            lambda: self_similarity(first, area, sources),
+            shape=(len(X), NUM_BANDS),
         ))
     return np.hstack(parts)
 

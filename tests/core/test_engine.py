@@ -19,7 +19,8 @@ from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.infra.cache import ArrayCache
 from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
 from scribbleseg_core.signatures.features import NUM_FEATURES
-from scribbleseg_core.store.model_file import load_model, save_model
+from scribbleseg_core.signatures.self_similarity import NUM_BANDS
+from scribbleseg_core.store.model_file import VERSION, load_model, save_model
 from tests.core.planted import LABELS, creature, stroke_faces
 
 PARAMS = SegmentParams(network=NetworkParams(epochs=30, faces_per_epoch=1000))
@@ -322,8 +323,8 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
 
     meta_path = tmp_path / "m" / "model.json"
     meta = json.loads(meta_path.read_text())
-    for version, message in [(99, "model format version 99, written by scribbleseg .*; this scribbleseg reads version 5"),
-                             (4, "model format version 4, written by scribbleseg .*, older than the version 5")]:
+    for version, message in [(99, f"model format version 99, written by scribbleseg .*; this scribbleseg reads version {VERSION}"),
+                             (VERSION - 1, f"model format version {VERSION - 1}, written by scribbleseg .*, older than the version {VERSION}")]:
         meta_path.write_text(json.dumps({**meta, "version": version}))
         with pytest.raises(ModelFileError, match=message) as refused:
             load_model(tmp_path / "m")
@@ -338,10 +339,10 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
         load_model(tmp_path / "m")
     # weights that do not fit the inputs the file describes are refused
     s = len(model.params.context_scales)
-    assert model.learner.stage1.num_inputs == NUM_FEATURES * (1 + s) + LOCAL_SHAPE_PER_SCALE * s
+    assert model.learner.stage1.num_inputs == NUM_FEATURES * (1 + s) + LOCAL_SHAPE_PER_SCALE * s + NUM_BANDS
     meta_path.write_text(json.dumps({**meta, "inputs": {**meta["inputs"], "local_shape": False}}))
     with pytest.raises(ModelFileError, match=f"expects {model.learner.stage1.num_inputs} inputs per face, its parameters "
-                                             f"give {NUM_FEATURES * (1 + s)}"):
+                                             f"give {NUM_FEATURES * (1 + s) + NUM_BANDS}"):
         load_model(tmp_path / "m")
     # a file whose stages disagree with its weights is refused
     meta_path.write_text(json.dumps({**meta, "label_context": False}))
