@@ -67,11 +67,12 @@ def self_similarity(descriptor: np.ndarray, area: np.ndarray, dist: SourceDistan
     D = dist.D
     reach = D >= 0
     Dz = np.where(reach, D, 0.0)
-    scale = (w * (dist.source_area(area) @ Dz)).sum() / max((w * (dist.source_area(area) @ reach)).sum(), 1e-300)
+    a = dist.source_area(area)
+    scale = (w * (a @ Dz)).sum() / max((w * (a @ reach)).sum(), 1e-300)
     G = (Dz / max(scale, 1e-12)).T  # (m, S): distances in mean geodesic distances
     component = np.argmax(reach, axis=0)  # faces of one component reach the same sources
     rng = np.random.default_rng(m)
-    h = np.sort(rng.choice(m, min(num_samples, m), replace=False, p=w))
+    h = np.sort(rng.choice(m, min(num_samples, int(np.count_nonzero(w))), replace=False, p=w))
     out = np.empty((m, NUM_BANDS))
     for start in range(0, m, CHUNK):
         rows = slice(start, min(m, start + CHUNK))
