@@ -52,6 +52,24 @@ class SourceDistances:
         nearest = np.argmin(np.where(self.D >= 0, self.D, np.inf), axis=0)
         return np.bincount(nearest, area, minlength=self.D.shape[0])
 
+    def normalized(self, area: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The distances in units of the shape's mean geodesic distance (its area-weighted
+        mean over faces and sources, each source weighted by :meth:`source_area`).
+
+        Returns
+        -------
+        Dn : (S, m) float64 ndarray
+            0 where a face and a source lie in different components.
+        reach : (S, m) bool ndarray
+            Which sources each face can reach.
+        source_area : (S,) float64 ndarray
+        """
+        reach = self.D >= 0
+        Dz = np.where(reach, self.D, 0.0).astype(np.float64)
+        a = self.source_area(area)
+        scale = (area * (a @ Dz)).sum() / max((area * (a @ reach)).sum(), 1e-300)
+        return Dz / max(scale, 1e-12), reach, a
+
 
 def source_distances(V: np.ndarray, F: np.ndarray, num_sources: int = NUM_SOURCES) -> SourceDistances:
     """Heat-method geodesic distances from farthest-point sources to every face.
@@ -149,12 +167,7 @@ class LabelContext:
     @classmethod
     def of(cls, dist: SourceDistances, area: np.ndarray) -> LabelContext:
         """Prepare from a shape's :class:`SourceDistances` and its face areas (m,)."""
-        D = dist.D
-        reach = D >= 0
-        Dz = np.where(reach, D, 0.0).astype(np.float64)
-        a = dist.source_area(area)
-        scale = (area * (a @ Dz)).sum() / max((area * (a @ reach)).sum(), 1e-300)
-        Dn = Dz / max(scale, 1e-12)
+        Dn, reach, a = dist.normalized(area)
         nearest = np.where(reach, Dn, np.inf).min(axis=0)
         Z = np.where(reach, np.exp(-(Dn - nearest) / SOFTNESS), 0.0)
         return cls(dist.source_face, a, Dn.astype(np.float32), Z.astype(np.float32), nearest,

@@ -37,7 +37,8 @@ def self_similarity(descriptor: np.ndarray, area: np.ndarray, dist: SourceDistan
     column); the descriptor distance is the root mean square of the differences. Geodesic
     distances between a face and a sampled face are bounded from below by the sources of
     `dist` (``max_s |d(s, f) − d(s, h)|``, exact when a source lies beyond one of them along
-    a geodesic) and divided by the shape's area-weighted mean distance to the sources; faces
+    a geodesic) in units of the shape's mean geodesic distance
+    (:meth:`~scribbleseg_core.signatures.geodesic.SourceDistances.normalized`); faces
     of another connected component lie in the last band. A band with no sampled face takes
     the largest distance found on the shape.
 
@@ -64,12 +65,8 @@ def self_similarity(descriptor: np.ndarray, area: np.ndarray, dist: SourceDistan
     mu = w @ X
     sd = np.sqrt(w @ (X - mu) ** 2)
     Z = (X - mu) / np.where(sd > 1e-12, sd, 1.0) / np.sqrt(X.shape[1])
-    D = dist.D
-    reach = D >= 0
-    Dz = np.where(reach, D, 0.0)
-    a = dist.source_area(area)
-    scale = (w * (a @ Dz)).sum() / max((w * (a @ reach)).sum(), 1e-300)
-    G = (Dz / max(scale, 1e-12)).T  # (m, S): distances in mean geodesic distances
+    Dn, reach, _ = dist.normalized(area)
+    G = Dn.T  # (m, S): distances in mean geodesic distances
     component = np.argmax(reach, axis=0)  # faces of one component reach the same sources
     rng = np.random.default_rng(m)
     h = np.sort(rng.choice(m, min(num_samples, int(np.count_nonzero(w))), replace=False, p=w))
