@@ -38,6 +38,10 @@ class NetworkParams:
     dropout : float
         Dropout after each hidden layer, in training only; it is what makes the network
         carry over from the training shapes' labels to unseen shapes. Default 0.3.
+    input_dropout : float
+        Share of the standardized inputs zeroed (the rest scaled up to keep their mean) for
+        each face of each epoch, in training only: no single input can tell the training
+        shapes apart, so the network leans on several. Default 0.2.
     epochs : int
         Epochs when training from scratch. Default 30.
     faces_per_epoch : int
@@ -53,6 +57,7 @@ class NetworkParams:
 
     hidden: tuple[int, int] = (128, 64)
     dropout: float = 0.3
+    input_dropout: float = 0.2
     epochs: int = 30
     faces_per_epoch: int = 1500
     seed: int = 0
@@ -61,8 +66,8 @@ class NetworkParams:
     def __post_init__(self):
         if len(self.hidden) != 2 or min(self.hidden) < 1:
             raise ValueError(f"hidden must be two positive widths; got {self.hidden}")
-        if not 0 <= self.dropout < 1:
-            raise ValueError(f"dropout must lie in [0, 1); got {self.dropout}")
+        if not 0 <= self.dropout < 1 or not 0 <= self.input_dropout < 1:
+            raise ValueError(f"dropout and input_dropout must lie in [0, 1); got {self.dropout}, {self.input_dropout}")
         if self.epochs < 1 or self.faces_per_epoch < 1:
             raise ValueError(f"epochs and faces_per_epoch must be positive; got {self.epochs}, {self.faces_per_epoch}")
         if self.threads is not None and self.threads < 1:
@@ -138,6 +143,31 @@ def build_mlp(d: int, c: int, hidden: tuple[int, int], dropout: float = 0.0, see
     drop = (lambda: [_dropout_layer()(dropout, rng)]) if dropout > 0 else (lambda: [])
     return nn.Sequential(nn.Linear(d, h1), nn.ReLU(), *drop(), nn.Linear(h1, h2), nn.ReLU(), *drop(),
                          nn.Linear(h2, c))
+
+
+def drop_inputs(Z: np.ndarray, p: float, rng: np.random.Generator) -> np.ndarray:
+    """Zero each value of `Z` with probability ≈ `p` (a multiple of 1/256) and scale the
+    others by 1 / (1 - p), so that every input keeps its mean; in place.
+
+    Parameters
+    ----------
+    Z : (m, d) float32 ndarray
+        Standardized inputs of one epoch.
+    p : float
+        In [0, 1); 0 leaves `Z` as it is and draws nothing from `rng`.
+    rng : numpy Generator
+        Source of the masks (one byte per value).
+
+    Returns
+    -------
+    (m, d) float32 ndarray
+        `Z` itself.
+    """
+    threshold = int(round(p * 256))
+    if threshold:
+        keep = np.frombuffer(rng.bytes(Z.size), dtype=np.uint8).reshape(Z.shape) >= threshold
+        Z *= keep * np.float32(256.0 / (256 - threshold))
+    return Z
 
 
 @cache
@@ -259,10 +289,12 @@ class FaceClassifier:
             opt, max_lr=LEARNING_RATE, total_steps=epochs * -(-len(data) // batch)
         )
         self.net.train()
+        masks = np.random.default_rng(p.seed + 1)
         last = 0.0
         for _ in range(epochs):
             Xe, ye = data.draw()
-            Xt = torch.from_numpy(((Xe - self.mean) / self.std).astype(np.float32))
+            Z = drop_inputs(((Xe - self.mean) / self.std).astype(np.float32), p.input_dropout, masks)
+            Xt = torch.from_numpy(Z)
             yt = torch.from_numpy(ye)
             total = torch.zeros(())
             for s in range(0, len(yt), batch):

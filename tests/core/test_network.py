@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
-import numpy as np
+from dataclasses import replace
 
-from scribbleseg_core.engine.network import FaceClassifier, NetworkParams, build_mlp
+import numpy as np
+import pytest
+
+from scribbleseg_core.engine.network import FaceClassifier, NetworkParams, build_mlp, drop_inputs
 
 # small and fast; the schedule is the default one scaled down
 PARAMS = NetworkParams(hidden=(16, 8), epochs=30, threads=1)
@@ -76,3 +79,28 @@ def test_dropout_zeroes_the_given_share_in_training_only_and_keeps_the_mean():
     assert abs(float(y.mean()) - 1.0) < 0.01  # survivors are scaled up
     drop.eval()
     assert torch.equal(drop(x), x)
+
+
+def test_input_dropout_zeroes_the_given_share_and_keeps_the_mean():
+    Z = np.ones((1000, 400), dtype=np.float32)
+    out = drop_inputs(Z, 0.2, np.random.default_rng(0))
+    assert out is Z
+    assert abs(float((Z == 0).mean()) - 51 / 256) < 0.005  # 0.2 rounded to a multiple of 1/256
+    assert abs(float(Z.mean()) - 1.0) < 0.01
+    untouched = np.ones((10, 4), dtype=np.float32)
+    rng = np.random.default_rng(0)
+    state = rng.bit_generator.state
+    assert (drop_inputs(untouched, 0.0, rng) == 1).all() and rng.bit_generator.state == state
+
+
+def test_input_dropout_changes_training_only():
+    X, y = _blobs(3)
+    plain = FaceClassifier(5, 3, replace(PARAMS, input_dropout=0.0))
+    masked = FaceClassifier(5, 3, replace(PARAMS, input_dropout=0.5))
+    plain.fit([X], [y])
+    masked.fit([X], [y])
+    assert not np.array_equal(plain.log_proba(X), masked.log_proba(X))
+    np.testing.assert_array_equal(masked.log_proba(X), masked.log_proba(X))  # no masks in prediction
+    assert (masked.log_proba(X).argmax(1) == y).mean() > 0.95
+    with pytest.raises(ValueError, match="input_dropout"):
+        NetworkParams(input_dropout=1.0)
