@@ -39,9 +39,10 @@ class NetworkParams:
         Dropout after each hidden layer, in training only; it is what makes the network
         carry over from the training shapes' labels to unseen shapes. Default 0.3.
     input_dropout : float
-        Share of the standardized inputs zeroed (the rest scaled up to keep their mean) for
-        each face of each epoch, in training only: no single input can tell the training
-        shapes apart, so the network leans on several. Default 0.2.
+        Share of the standardized inputs zeroed afresh for each face of each epoch (the rest
+        scaled up to keep their mean), in training only (:func:`drop_inputs`): the network
+        cannot rest on any one input to tell the few training shapes' parts apart, so it
+        leans on several. Default 0.2.
     epochs : int
         Epochs when training from scratch. Default 30.
     faces_per_epoch : int
@@ -146,8 +147,8 @@ def build_mlp(d: int, c: int, hidden: tuple[int, int], dropout: float = 0.0, see
 
 
 def drop_inputs(Z: np.ndarray, p: float, rng: np.random.Generator) -> np.ndarray:
-    """Zero each value of `Z` with probability ≈ `p` (a multiple of 1/256) and scale the
-    others by 1 / (1 - p), so that every input keeps its mean; in place.
+    """Zero each value of `Z` with probability p' (`p` rounded to a multiple of 1/256) and
+    scale the others by 1 / (1 - p'), so that every input keeps its mean; in place.
 
     Parameters
     ----------
