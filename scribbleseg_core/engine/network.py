@@ -166,9 +166,15 @@ def drop_inputs(Z: np.ndarray, p: float, rng: np.random.Generator) -> np.ndarray
     """
     threshold = int(round(p * 256))
     if threshold:
-        keep = np.frombuffer(rng.bytes(Z.size), dtype=np.uint8).reshape(Z.shape) >= threshold
-        Z *= keep * np.float32(256.0 / (256 - threshold))
+        Z *= _keep_mask(rng, Z.shape, threshold)
     return Z
+
+
+def _keep_mask(rng: np.random.Generator, shape: tuple[int, ...], threshold: int) -> np.ndarray:
+    """Dropout's multiplier, float32 of `shape`: 0 with probability `threshold` / 256 (one
+    byte of `rng` per value), else 256 / (256 − `threshold`), which keeps the mean."""
+    keep = np.frombuffer(rng.bytes(int(np.prod(shape))), dtype=np.uint8).reshape(shape) >= threshold
+    return keep * np.float32(256.0 / (256 - threshold))
 
 
 @cache
@@ -188,9 +194,7 @@ def _dropout_layer():
         def forward(self, x):
             if not self.training or self.threshold == 0:
                 return x
-            noise = np.frombuffer(self.rng.bytes(x.numel()), dtype=np.uint8).reshape(x.shape)
-            keep = torch.from_numpy(noise >= self.threshold)
-            return x * keep * (256.0 / (256 - self.threshold))
+            return x * torch.from_numpy(_keep_mask(self.rng, tuple(x.shape), self.threshold))
 
         def __deepcopy__(self, memo):  # a copy draws from its own generator, in the same state
             clone = type(self)(self.p, copy.deepcopy(self.rng, memo))
