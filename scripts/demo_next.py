@@ -27,6 +27,7 @@ from scribbleseg_core.engine.pipeline import collection_confidence
 from scribbleseg_core.engine.shape import prepare_shape
 from scribbleseg_core.evaluation.benchmark import load_category
 from scribbleseg_core.evaluation.metrics import rand_index_error
+from scribbleseg_core.formats.scribbles import Scribbles, Stroke
 
 ASSETS = Path(__file__).resolve().parents[1] / "assets"
 
@@ -65,10 +66,8 @@ def main(argv=None) -> None:
         print("no unsure face: nothing to suggest")
         return
     mesh, truth = items[hint.shape].mesh, items[hint.shape].truth
-    strokes = np.full(mesh.num_file_faces, -1, np.int64)
-    for label, faces in psb_protocol_strokes(mesh.V_file, mesh.F_file, truth):
-        strokes[faces] = label
-    painted[hint.shape] = strokes
+    strokes = tuple(Stroke(label, faces) for label, faces in psb_protocol_strokes(mesh.V_file, mesh.F_file, truth))
+    painted[hint.shape] = Scribbles(f"{mesh.name}.ply", mesh.num_file_faces, names, strokes).face_labels()
     print(f"Paint here next: {mesh.name}")
     _, errors, _ = run()
     print(f"  {mesh.name} (newly painted)  {errors[hint.shape]:.3f}")
