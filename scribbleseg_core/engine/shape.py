@@ -12,7 +12,7 @@ from scribbleseg_core.formats.mesh import Mesh
 from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
 from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.infra.cache import ArrayCache, hash_arrays
-from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
+from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE, SLOPE_COLUMNS
 from scribbleseg_core.signatures.features import NUM_FEATURES, SDF_COLUMN, FeatureParams, cached_face_features
 from scribbleseg_core.signatures.geodesic import LabelContext, SourceDistances, cached_source_distances
 from scribbleseg_core.signatures.self_similarity import NUM_BANDS
@@ -120,13 +120,24 @@ class ShapeData:
         return sp.csr_matrix((np.ones(m), (self.patch, np.arange(m))), shape=(self.num_patches, m))
 
 
+#: The signatures diffused at the coarser context scales (all but the first): those of a
+#: region rather than of fine surface detail, the average geodesic distance, the shape
+#: diameter, the Gaussian curvature and the two lowest SI-HKS frequencies. The SI-HKS's
+#: higher frequencies, averaged over a tenth of a shape, describe the texture of a region that
+#: only the few training shapes share: a network reading them there tells the training shapes
+#: apart rather than their parts.
+REGION_COLUMNS = SLOPE_COLUMNS
+
+
 def network_input_width(num_scales: int, local_shape: bool) -> int:
     """d, the length of :func:`network_input` per face: the 22 signatures, them diffused
-    at each of `num_scales` scales, 5 local-shape values a scale with `local_shape`, and
-    the self-similarity's bands with any scale (:class:`ShapeData` gives it the geodesic
-    sample)."""
-    return (NUM_FEATURES * (1 + num_scales) + (NUM_BANDS if num_scales else 0)
-            + (LOCAL_SHAPE_PER_SCALE * num_scales if local_shape else 0))
+    at the first of `num_scales` scales, the :data:`REGION_COLUMNS` diffused at each other
+    scale, 5 local-shape values and 5 slopes a scale with `local_shape`, and the
+    self-similarity's bands with any scale (:class:`ShapeData` gives it the geodesic sample)."""
+    if not num_scales:
+        return NUM_FEATURES
+    return (2 * NUM_FEATURES + len(REGION_COLUMNS) * (num_scales - 1) + NUM_BANDS
+            + ((LOCAL_SHAPE_PER_SCALE + len(SLOPE_COLUMNS)) * num_scales if local_shape else 0))
 
 
 def network_input(
@@ -139,10 +150,11 @@ def network_input(
     sources: SourceDistances | None = None,
     cache: ArrayCache | None = None,
 ) -> np.ndarray:
-    """The classifier's input per face: the 22 signatures, then the same diffused at each
-    of `context_scales` (see :mod:`scribbleseg_core.signatures.context`), then (given the
-    mesh) the local shape at each scale, then (given the geodesic sources) the
-    self-similarity of the signatures diffused at the first scale
+    """The classifier's input per face: the 22 signatures, then the same diffused at the
+    first of `context_scales` and the :data:`REGION_COLUMNS` of them diffused at each other
+    scale (see :mod:`scribbleseg_core.signatures.context`), then (given the mesh) the local
+    shape and the slopes of the region signatures at each scale, then (given the geodesic
+    sources) the self-similarity of the signatures diffused at the first scale
     (:mod:`scribbleseg_core.signatures.self_similarity`).
 
     The parts beyond the signatures are cached on disk (`cache`, default the user cache's
@@ -156,7 +168,8 @@ def network_input(
     graph : DualGraph
     context_scales : tuple of float
     local_shape_of : ((n, 3) float64 ndarray, (m, 3) int64 ndarray), optional
-        V and F of the unit-area mesh: append :func:`~scribbleseg_core.signatures.context.local_shape`.
+        V and F of the unit-area mesh: append :func:`~scribbleseg_core.signatures.context.local_shape`
+        and :func:`~scribbleseg_core.signatures.context.surface_slopes`.
     sources : SourceDistances, optional
         The shape's geodesic sample: append the
         :func:`~scribbleseg_core.signatures.self_similarity.self_similarity` (with at least
@@ -164,19 +177,26 @@ def network_input(
 
     Returns
     -------
-    (m, 22 · (1 + s) + 5 · s + b) float64 ndarray
-        s = len(context_scales); the 5 · s local-shape columns only with `local_shape_of`;
-        b = 5 self-similarity bands with `sources` and s ≥ 1, else 0.
+    (m, :func:`network_input_width`) float64 ndarray
+        With s = len(context_scales) ≥ 1: 22 + 22 + 5 · (s − 1) signature columns, then
+        5 · s local-shape and 5 · s slope columns with `local_shape_of`, then 5
+        self-similarity bands with `sources`; 22 columns with no scale.
     """
-    from scribbleseg_core.signatures.context import diffuse_face_values, local_shape
+    from scribbleseg_core.signatures.context import diffuse_face_values, local_shape, surface_slopes
     from scribbleseg_core.signatures.self_similarity import self_similarity
 
     scales = tuple(float(t) for t in context_scales)
     cache = cache or ArrayCache(kind="context")
+    region_columns = list(REGION_COLUMNS)
+
+    def diffuse():
+        first = diffuse_face_values(graph, area, X, scales[:1])
+        return np.hstack([first, diffuse_face_values(graph, area, X[:, region_columns], scales[1:])])
+
     diffused = cache.get_or_compute(
-        hash_arrays(X, area, graph.pairs, meta={"context": list(scales), "version": 1}),
-        lambda: diffuse_face_values(graph, area, X, scales),
-        shape=(len(X), X.shape[1] * len(scales)),
+        hash_arrays(X, area, graph.pairs, meta={"context": list(scales), "region": region_columns}),
+        diffuse,
+        shape=(len(X), X.shape[1] * min(len(scales), 1) + len(region_columns) * max(len(scales) - 1, 0)),
     )
     parts = [X, diffused]
     if local_shape_of is not None:
@@ -185,6 +205,13 @@ def network_input(
             hash_arrays(V, F, meta={"local_shape": list(scales), "version": 1}),
             lambda: local_shape(V, F, graph, area, scales),
             shape=(len(X), LOCAL_SHAPE_PER_SCALE * len(scales)),
+        ))
+        # the region signatures diffused at every scale: at the first among all 22, beyond it alone
+        region = np.hstack([diffused[:, region_columns], diffused[:, X.shape[1]:]]) if scales else diffused
+        parts.append(cache.get_or_compute(
+            hash_arrays(V, F, region, meta={"slopes": 1}),
+            lambda: surface_slopes(V, F, graph, region),
+            shape=(len(X), len(SLOPE_COLUMNS) * len(scales)),
         ))
     if sources is not None and scales:
         first = diffused[:, : X.shape[1]]

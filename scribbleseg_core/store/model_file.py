@@ -6,7 +6,7 @@ A model folder holds three files, and a fourth with a boundary classifier:
     The schema, version :data:`VERSION`::
 
         format          "scribbleseg-model"
-        version         6
+        version         7
         scribbleseg     the package version that wrote it (informational)
         feature_version the per-face signatures' definition it was trained on
         label_names     k names
@@ -60,7 +60,7 @@ from scribbleseg_core.signatures.features import FEATURE_VERSION
 
 FORMAT = "scribbleseg-model"
 #: The schema version this scribbleseg writes and reads.
-VERSION = 6
+VERSION = 7
 
 
 def save_model(folder: str | os.PathLike, model: TrainedModel) -> Path:

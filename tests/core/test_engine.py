@@ -14,10 +14,10 @@ from scribbleseg_core.engine.network import NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams, fit_model, segment_collection
 from scribbleseg_core.engine.predict import predict_shape
 from scribbleseg_core.engine.propagate import FaceEnergy, propagate_shape
-from scribbleseg_core.engine.shape import prepare_shape
+from scribbleseg_core.engine.shape import REGION_COLUMNS, prepare_shape
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.infra.cache import ArrayCache
-from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
+from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE, SLOPE_COLUMNS
 from scribbleseg_core.signatures.features import NUM_FEATURES
 from scribbleseg_core.signatures.self_similarity import NUM_BANDS
 from scribbleseg_core.store.model_file import VERSION, load_model, save_model
@@ -339,10 +339,11 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
         load_model(tmp_path / "m")
     # weights that do not fit the inputs the file describes are refused
     s = len(model.params.context_scales)
-    assert model.learner.stage1.num_inputs == NUM_FEATURES * (1 + s) + LOCAL_SHAPE_PER_SCALE * s + NUM_BANDS
+    signatures = 2 * NUM_FEATURES + len(REGION_COLUMNS) * (s - 1)  # all 22 at the first scale, 5 at the others
+    assert model.learner.stage1.num_inputs == signatures + (LOCAL_SHAPE_PER_SCALE + len(SLOPE_COLUMNS)) * s + NUM_BANDS
     meta_path.write_text(json.dumps({**meta, "inputs": {**meta["inputs"], "local_shape": False}}))
     with pytest.raises(ModelFileError, match=f"expects {model.learner.stage1.num_inputs} inputs per face, its parameters "
-                                             f"give {NUM_FEATURES * (1 + s) + NUM_BANDS}"):
+                                             f"give {signatures + NUM_BANDS}"):
         load_model(tmp_path / "m")
     # a file whose stages disagree with its weights is refused
     meta_path.write_text(json.dumps({**meta, "label_context": False}))
