@@ -1,8 +1,9 @@
 """The demo creatures before and after painting the shape *Paint here next* points to.
 
 Runs the collection ``assets/Quadruped`` with its three scribbled creatures, takes the
-suggestion (:func:`~scribbleseg_core.engine.guidance.suggest` on the confidence the app
-shows), paints that creature with the demo's stroke protocol (one stroke per connected part,
+suggestion among the creatures without strokes (:func:`~scribbleseg_core.engine.guidance.suggest`
+on the confidence the app shows; the app's *Paint here next* weighs the painted shapes too),
+paints that creature with the demo's stroke protocol (one stroke per connected part,
 :func:`assets.generate.psb_protocol_strokes`) and runs again. Prints the Rand Index error of
 every creature still predicted, after each run. What the README's figures after *Paint here
 next* come from; the app's user paints by hand instead (fewer strokes, other faces).
