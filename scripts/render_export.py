@@ -69,7 +69,7 @@ def main(argv=None) -> None:
     ps.set_ground_plane_mode("none")
     ps.set_window_size(TILE[0], TILE[1])
     ps.set_up_dir("z_up")
-    tiles, errors = [], []
+    tiles, errors, captions = [], [], []
     for path in plys:
         mesh = load_mesh(path)
         labels = read_ply_labels(path)
@@ -92,9 +92,6 @@ def main(argv=None) -> None:
         errors.append(err)
         kind = "painted" if path.stem in a.painted else "predicted"
         print(f"{path.stem:16s} {kind:9s} " + ("" if err is None else f"Rand Index error {err:.3f}"))
-    captions = []
-    for path, err in zip(plys, errors):
-        kind = "painted" if path.stem in a.painted else "predicted"
         captions.append(f"{path.stem}, {kind}" + ("" if err is None else f", error {err:.3f}"))
     a.out.parent.mkdir(parents=True, exist_ok=True)
     _grid(tiles, captions, a.columns).save(a.out)

@@ -12,7 +12,7 @@ from scribbleseg_core.formats.mesh import Mesh
 from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
 from scribbleseg_core.geometry.measures import face_areas
 from scribbleseg_core.infra.cache import ArrayCache, hash_arrays
-from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE, SLOPE_COLUMNS
+from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
 from scribbleseg_core.signatures.features import NUM_FEATURES, SDF_COLUMN, FeatureParams, cached_face_features
 from scribbleseg_core.signatures.geodesic import LabelContext, SourceDistances, cached_source_distances
 from scribbleseg_core.signatures.self_similarity import NUM_BANDS
@@ -120,13 +120,13 @@ class ShapeData:
         return sp.csr_matrix((np.ones(m), (self.patch, np.arange(m))), shape=(self.num_patches, m))
 
 
-#: The signatures diffused at the coarser context scales (all but the first): those of a
-#: region rather than of fine surface detail, the average geodesic distance, the shape
-#: diameter, the Gaussian curvature and the two lowest SI-HKS frequencies. The SI-HKS's
-#: higher frequencies, averaged over a tenth of a shape, describe the texture of a region that
-#: only the few training shapes share: a network reading them there tells the training shapes
-#: apart rather than their parts.
-REGION_COLUMNS = SLOPE_COLUMNS
+#: The signatures diffused at the coarser context scales (all but the first), and whose
+#: slopes the network reads at every scale: those of a region rather than of fine surface
+#: detail, the average geodesic distance, the shape diameter, the Gaussian curvature and the
+#: two lowest SI-HKS frequencies. The SI-HKS's higher frequencies, averaged over a tenth of a
+#: shape, describe the texture of a region that only the few training shapes share: a network
+#: reading them there tells the training shapes apart rather than their parts.
+REGION_COLUMNS = (0, 1, 2, 3, 4)
 
 
 def network_input_width(num_scales: int, local_shape: bool) -> int:
@@ -137,7 +137,7 @@ def network_input_width(num_scales: int, local_shape: bool) -> int:
     if not num_scales:
         return NUM_FEATURES
     return (2 * NUM_FEATURES + len(REGION_COLUMNS) * (num_scales - 1) + NUM_BANDS
-            + ((LOCAL_SHAPE_PER_SCALE + len(SLOPE_COLUMNS)) * num_scales if local_shape else 0))
+            + ((LOCAL_SHAPE_PER_SCALE + len(REGION_COLUMNS)) * num_scales if local_shape else 0))
 
 
 def network_input(
@@ -211,7 +211,7 @@ def network_input(
         parts.append(cache.get_or_compute(
             hash_arrays(V, F, region, meta={"slopes": 1}),
             lambda: surface_slopes(V, F, graph, region),
-            shape=(len(X), len(SLOPE_COLUMNS) * len(scales)),
+            shape=(len(X), len(REGION_COLUMNS) * len(scales)),
         ))
     if sources is not None and scales:
         first = diffused[:, : X.shape[1]]

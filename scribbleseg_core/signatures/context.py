@@ -102,12 +102,6 @@ def local_shape(V: np.ndarray, F: np.ndarray, graph: DualGraph, area: np.ndarray
     return np.hstack(out) if out else np.zeros((len(P), 0))
 
 
-#: The signature columns whose diffused values' slopes :func:`surface_slopes` gives: the
-#: average geodesic distance, the shape diameter, the Gaussian curvature and the two lowest
-#: SI-HKS frequencies.
-SLOPE_COLUMNS = (0, 1, 2, 3, 4)
-
-
 def tangent_gradients(V: np.ndarray, F: np.ndarray, graph: DualGraph, Y: np.ndarray) -> np.ndarray:
     """The gradient of each column of the per-face values `Y` in each face's tangent plane.
 

@@ -17,7 +17,7 @@ from scribbleseg_core.engine.propagate import FaceEnergy, propagate_shape
 from scribbleseg_core.engine.shape import REGION_COLUMNS, prepare_shape
 from scribbleseg_core.errors import ModelFileError
 from scribbleseg_core.infra.cache import ArrayCache
-from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE, SLOPE_COLUMNS
+from scribbleseg_core.signatures.context import LOCAL_SHAPE_PER_SCALE
 from scribbleseg_core.signatures.features import NUM_FEATURES
 from scribbleseg_core.signatures.self_similarity import NUM_BANDS
 from scribbleseg_core.store.model_file import VERSION, load_model, save_model
@@ -340,7 +340,7 @@ def test_model_round_trip_and_refusals(tmp_path, collection):
     # weights that do not fit the inputs the file describes are refused
     s = len(model.params.context_scales)
     signatures = 2 * NUM_FEATURES + len(REGION_COLUMNS) * (s - 1)  # all 22 at the first scale, 5 at the others
-    assert model.learner.stage1.num_inputs == signatures + (LOCAL_SHAPE_PER_SCALE + len(SLOPE_COLUMNS)) * s + NUM_BANDS
+    assert model.learner.stage1.num_inputs == signatures + (LOCAL_SHAPE_PER_SCALE + len(REGION_COLUMNS)) * s + NUM_BANDS
     meta_path.write_text(json.dumps({**meta, "inputs": {**meta["inputs"], "local_shape": False}}))
     with pytest.raises(ModelFileError, match=f"expects {model.learner.stage1.num_inputs} inputs per face, its parameters "
                                              f"give {signatures + NUM_BANDS}"):
