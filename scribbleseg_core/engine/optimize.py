@@ -98,11 +98,11 @@ class SegmentParams:
         Default True.
     cross_fit : float
         ``"face"`` only: the share of held-out networks in a scribbled shape's network term,
-        ``log((1 − a) P_all + a P_half)``: its probabilities also come from a network trained
-        on the other half of the shapes, one that never saw its labels, so the term is not
-        only the echo of them. The model for new shapes is the network trained on all shapes.
-        0 turns it off (then each round trains one network instead of three, each of the two
-        extra on half the shapes). Default 0.7.
+        ``log((1 − a) P_all + a P_fold)``: its probabilities also come from a network trained
+        on the other folds of the shapes (:func:`fold_count`), one that never saw its labels,
+        so the term is not only the echo of them. The model for new shapes is the network
+        trained on all shapes. 0 turns it off (then, without the label-context stage, each
+        round trains one first-stage network instead of one plus one a fold). Default 0.7.
     network : NetworkParams
         The classifier and its training.
     propagation : PropagateParams
@@ -155,9 +155,10 @@ class TrainedModel:
         ``"paper"`` only: the patch descriptors' ranges and codebook.
     delta : float or None
         ``"paper"`` only: δ of the feature term.
-    halves : tuple of FaceClassifier
-        The first-stage networks trained on each half of the collection (cross-fitting), for
-        a later run to continue (``segment_collection(warm=)``); not saved with the model.
+    fold_nets : tuple of FaceClassifier
+        The first-stage networks each trained without one fold of the scribbled shapes
+        (cross-fitting, :func:`fold_count`), for a later run to continue
+        (``segment_collection(warm=)``); not saved with the model.
     boundary : BoundaryClassifier or None
         ``"face"`` only: where labels meet (:mod:`~scribbleseg_core.engine.boundary`), learned
         from the scribbled shapes' labels with the networks; the smoothness of shapes without
@@ -169,7 +170,7 @@ class TrainedModel:
     params: SegmentParams
     encoder: PatchEncoder | None = None
     delta: float | None = None
-    halves: tuple[FaceClassifier, ...] = ()
+    fold_nets: tuple[FaceClassifier, ...] = ()
     boundary: BoundaryClassifier | None = None
 
     def with_threads(self, threads: int | None) -> TrainedModel:
@@ -218,7 +219,7 @@ class Snapshot:
         The network of this step (from the first training on); later steps train a copy.
     held_out : tuple of ((m_s, k) float64 ndarray or None) or None
         The last step only: per shape, log label probabilities from a first-stage network
-        that did not see the shape's labels (trained on the other half of the collection),
+        that did not see the shape's labels (trained on the other folds of the collection),
         None where there is none (a collection of one shape, method ``"paper"``). What the
         confidence of a collection's shape is measured with
         (:func:`~scribbleseg_core.engine.guidance.label_confidence`).
@@ -261,7 +262,7 @@ def segment_collection(
     params : SegmentParams
     warm : TrainedModel, optional
         A model from an earlier run on this collection: when it has the same labels, inputs
-        and stages, its networks (the learner and the cross-fitting halves) continue training
+        and stages, its networks (the learner and the cross-fitting fold networks) continue training
         (``NetworkParams.warm_epochs``) instead of starting over, so a run after a few
         corrections is faster. Otherwise ignored.
 
@@ -343,7 +344,7 @@ def fit_model(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], label_n
 
     What the alternation's training step does with fixed labels: stage 1 on every shape,
     (with label context) stage 2 on stage-1 probabilities from the networks trained on the
-    other half of the shapes, and (``propagation.boundary > 0``) the learned boundary term on
+    other folds of the shapes, and (``propagation.boundary > 0``) the learned boundary term on
     the labels' boundaries. It compares learners apart from the alternation
     (``scripts/learner_alone.py``).
 
@@ -366,7 +367,7 @@ def fit_model(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], label_n
     labels = [np.asarray(lab, dtype=np.int64) for lab in labels]
     net.fit(inputs, labels)
     net.fit_boundary(labels)  # every shape is labeled: fit does not train it
-    return TrainedModel(net.main, tuple(label_names), params, halves=tuple(net.halves), boundary=net.boundary)
+    return TrainedModel(net.main, tuple(label_names), params, fold_nets=tuple(net.fold_nets), boundary=net.boundary)
 
 
 def _edges_of(shapes: Sequence[ShapeData], inputs):
@@ -390,16 +391,30 @@ def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentP
             and (a.stage2 is None or a.stage2.num_inputs == b.stage2.num_inputs))
 
 
+def fold_count(n: int) -> int:
+    """Folds of `n` scribbled shapes for the held-out networks: as many as keep their training
+    within that of two halves of 20 shapes, ``(K − 1) n ≤`` :data:`FOLD_BUDGET`, between 2 and
+    `n`. Leave one out up to 5 shapes (each network then learns from all shapes but one, not
+    from half of a few), 4 folds for 6, 3 from 7 to 10, two halves from 11 on; 0 for fewer
+    than 2."""
+    return 0 if n < 2 else max(2, min(n, 1 + FOLD_BUDGET // n))
+
+
+#: Scribbled shapes' worth of training that the held-out networks of one round may take
+#: together (:func:`fold_count`): that of two halves of a 20-shape collection.
+FOLD_BUDGET = 20
+
+
 class _Networks:
     """The learner the alternation trains, and the network term of the energy it gives.
 
-    The learner (the model) is trained on every labeled scribbled shape. Two more first-stage
-    networks are each trained on one half of them (alternate scribbled shapes in the order
-    given), so that every scribbled shape has probabilities from a network that never saw its
-    labels. They serve
+    The learner (the model) is trained on every labeled scribbled shape. The scribbled shapes
+    are dealt into :func:`fold_count` folds in the order given, and one more first-stage
+    network a fold is trained on the shapes of the other folds, so that every scribbled shape
+    has probabilities from a network that never saw its labels. They serve
 
     * cross-fitting (``share > 0``): a scribbled shape's probabilities are
-      ``(1 − share) P_learner + share P_other half``, so its term is not only the echo of its
+      ``(1 − share) P_learner + share P_its fold's network``, so its term is not only the echo of its
       propagated labels (shapes without scribbles use the learner alone, as a new shape would:
       no network saw their labels);
     * the label-context stage (`context_of` given): it is trained on the label distances of
@@ -432,9 +447,10 @@ class _Networks:
         stage2 = FaceClassifier(d + 2 * k, k, params) if context_of is not None else None
         self.main = Learner(FaceClassifier(d, k, params), stage2)
         self.share = share if n >= 2 else 0.0
-        self.fold_of = (np.cumsum(self.mixed) - 1) % 2  # alternate scribbled shapes; unused for the others
         held_out = n >= 2 and (self.share > 0 or context_of is not None)
-        self.halves = [FaceClassifier(d, k, params) for _ in range(2)] if held_out else []
+        folds = fold_count(n) if held_out else 0
+        self.fold_of = (np.cumsum(self.mixed) - 1) % max(folds, 1)  # dealt in turn; unused for the others
+        self.fold_nets = [FaceClassifier(d, k, params) for _ in range(folds)]
         self._held: dict[int, tuple[int, np.ndarray]] = {}  # shape -> (id of its input, held-out log P)
 
     @property
@@ -442,16 +458,16 @@ class _Networks:
         return self.main.stage1.trained
 
     def model(self, problem) -> TrainedModel:
-        """The model of these networks: the learner and the boundary classifier, with the halves
-        for a later run to continue."""
-        return replace(problem.model(self.main), halves=tuple(self.halves), boundary=self.boundary)
+        """The model of these networks: the learner and the boundary classifier, with the fold
+        networks for a later run to continue."""
+        return replace(problem.model(self.main), fold_nets=tuple(self.fold_nets), boundary=self.boundary)
 
     def continue_from(self, warm: TrainedModel, threads: int | None) -> None:
         """Start from `warm`'s networks (copies on `threads` torch threads): trainings continue
         with ``warm_epochs``."""
         self.main = copy.deepcopy(warm.learner.with_threads(threads))
-        if len(warm.halves) == len(self.halves):
-            self.halves = [copy.deepcopy(h.with_threads(threads)) for h in warm.halves]
+        if len(warm.fold_nets) == len(self.fold_nets):
+            self.fold_nets = [copy.deepcopy(h.with_threads(threads)) for h in warm.fold_nets]
 
     @property
     def cuts_need_boundary(self) -> bool:
@@ -477,11 +493,12 @@ class _Networks:
         """Train on every scribbled shape with labels and inputs, warm when trained before; the
         boundary classifier on the same labels, afresh, when the cuts need it.
 
-        With two or more torch threads to use and both halves to train, the networks train in
-        two lanes at once, one torch thread each: one half, stage 2's inputs on the shapes it
-        holds out, then stage 1; the other half, stage 2's inputs on its held-out shapes, then
-        stage 2 (which needs both). Small networks use a second core better this way than
-        through torch's threads within each operation; the networks are the same."""
+        With two or more torch threads to use and fold networks to train, the networks train
+        in two lanes at once, one torch thread each: the even folds' networks, stage 2's
+        inputs on the shapes they hold out, then stage 1; the odd folds' networks, stage 2's
+        inputs on theirs, then stage 2 (which needs both). Small networks use a second core
+        better this way than through torch's threads within each operation; the networks are
+        the same."""
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels))
                   if x is not None and lab is not None and self.mixed[i]]
         if self.cuts_need_boundary:
@@ -490,32 +507,34 @@ class _Networks:
         def data(which):
             return [inputs[i] for i in which], [labels[i] for i in which]
 
-        folds = [[i for i in usable if self.fold_of[i] != f] for f in range(len(self.halves))]
+        folds = [[i for i in usable if self.fold_of[i] != f] for f in range(len(self.fold_nets))]
         self._held = {}
-        if self._two_lanes and len(folds) == 2 and all(folds):
-            # with two folds, the shapes half 0 holds out are those half 1 trains on, and back
-            with ThreadPoolExecutor(1) as lane:  # runs its jobs in order: half 0, its inputs, stage 1
-                half0 = lane.submit(self._fit_half, 0, *data(folds[0]), 1)
-                inputs0 = lane.submit(self._context_inputs, inputs, folds[1], 1)
-                first = lane.submit(self._fit_first, *data(usable), 1)
-                self._fit_half(1, *data(folds[1]), 1)
-                X2 = self._context_inputs(inputs, folds[0], 1)
-                half0.result()
-                X2 |= inputs0.result()
+        if self._two_lanes and folds and all(folds):
+
+            def lane(nets) -> dict[int, np.ndarray]:
+                for f in nets:
+                    self._fit_fold(f, *data(folds[f]), 1)
+                return self._context_inputs(inputs, [i for i in usable if self.fold_of[i] in nets], 1)
+
+            with ThreadPoolExecutor(1) as other:  # runs its jobs in order: even folds, their inputs, stage 1
+                even = other.submit(lane, range(0, len(folds), 2))
+                first = other.submit(self._fit_first, *data(usable), 1)
+                X2 = lane(range(1, len(folds), 2))
+                X2 |= even.result()
                 self._fit_second(X2, labels, usable, 1)
                 first.result()
             return
         self._fit_first(*data(usable))
         for f, others in enumerate(folds):
             if others:
-                self._fit_half(f, *data(others))
+                self._fit_fold(f, *data(others))
         self._fit_second(self._context_inputs(inputs, usable), labels, usable)
 
     def _fit_first(self, X, y, threads: int | None = None) -> None:
         self.main.stage1.fit(X, y, warm=self.main.stage1.trained, threads=threads)
 
-    def _fit_half(self, f: int, X, y, threads: int | None = None) -> None:
-        self.halves[f].fit(X, y, warm=self.halves[f].trained, threads=threads)
+    def _fit_fold(self, f: int, X, y, threads: int | None = None) -> None:
+        self.fold_nets[f].fit(X, y, warm=self.fold_nets[f].trained, threads=threads)
 
     def _context_inputs(self, inputs, which, threads: int | None = None) -> dict[int, np.ndarray]:
         """Stage 2's inputs of shapes `which`: their descriptors and the label distances of
@@ -536,10 +555,10 @@ class _Networks:
     def _held_out(self, i: int) -> FaceClassifier | None:
         """The trained first-stage network that did not see shape i's labels, if any (none for
         a shape without scribbles: no network saw its labels)."""
-        if not self.halves or not self.mixed[i]:
+        if not self.fold_nets or not self.mixed[i]:
             return None
-        half = self.halves[self.fold_of[i]]
-        return half if half.trained else None
+        net = self.fold_nets[self.fold_of[i]]
+        return net if net.trained else None
 
     def _held_out_log_proba(self, i: int, x: np.ndarray, fallback: FaceClassifier | None = None,
                             threads: int | None = None) -> np.ndarray | None:

@@ -103,7 +103,7 @@ def test_shapes_without_scribbles_train_nothing(collection):
         net.fit(inputs, labels[:3] + [other])
         weights.append([p.detach().numpy().copy() for p in net.main.stage1.net.parameters()])
         assert net.held_out_log_proba(inputs)[3] is None  # no network saw its labels
-        assert [h.trained for h in net.halves] == [True, True]  # the halves split shapes 0 and 2 from 1
+        assert [h.trained for h in net.fold_nets] == [True, True, True]  # 3 scribbled shapes: leave one out
     for a, b in zip(*weights):
         np.testing.assert_array_equal(a, b)
 
@@ -116,19 +116,18 @@ def test_cross_fitting_mixes_in_networks_that_never_saw_the_shape(collection):
     labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
     net = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [s.is_scribbled for s in shapes])
     net.fit(inputs, labels)
-    for f, half in enumerate(net.halves):  # each half trained on the other fold's scribbled shapes only
-        assert half.trained
+    assert all(h.trained for h in net.fold_nets)
     mixed = net.log_proba(inputs)
     for i, (s, x) in enumerate(zip(shapes, inputs)):
-        own, other = np.exp(net.main.log_proba(x)), np.exp(net.halves[net.fold_of[i]].log_proba(x))
+        own, other = np.exp(net.main.log_proba(x)), np.exp(net.fold_nets[net.fold_of[i]].log_proba(x))
         expected = 0.3 * own + 0.7 * other if s.is_scribbled else own  # no scribbles: the model alone
         np.testing.assert_allclose(np.exp(mixed[i]), expected, rtol=1e-6)
     alone = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [True])  # one shape: none held out
-    assert alone.halves == []
+    assert alone.fold_nets == []
 
 
 def test_label_context_stage_learns_from_held_out_probabilities(collection, monkeypatch):
-    """Stage 2 is trained on the label distances of the half networks' probabilities (never
+    """Stage 2 is trained on the label distances of the fold networks' probabilities (never
     of a network that saw the shape), and the model's prediction runs both stages."""
     from scribbleseg_core.engine import optimize
     from scribbleseg_core.engine.learner import context_input
@@ -144,11 +143,11 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     net = optimize._Networks(inputs[0].shape[1], k, PARAMS.network, 0.0, [s.is_scribbled for s in shapes],
                              lambda i: shapes[i].label_context)
     net.fit(inputs, labels)
-    assert len(net.halves) == 2 and net.main.stage2.num_inputs == inputs[0].shape[1] + 2 * k
+    assert len(net.fold_nets) == 3 and net.main.stage2.num_inputs == inputs[0].shape[1] + 2 * k
     used = [i for i, lab in enumerate(labels) if lab is not None]
     assert sorted(i for i, _ in seen) == used
     for i, lp in seen:
-        np.testing.assert_allclose(lp, net.halves[net.fold_of[i]].log_proba(inputs[i]))
+        np.testing.assert_allclose(lp, net.fold_nets[net.fold_of[i]].log_proba(inputs[i]))
     model = snaps[-1].model
     assert model.learner.stage2 is not None
     s = shapes[3]
@@ -160,7 +159,7 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
 
 
 def test_two_training_lanes_give_the_networks_of_one_after_another(collection, monkeypatch):
-    """With two threads to use, the halves, stage 1 and stage 2 train in two lanes at once
+    """With two threads to use, the fold networks, stage 1 and stage 2 train in two lanes at once
     (one torch thread each), and the shapes' probabilities come two at a time; every network
     and every probability comes out as when computed one after another."""
     from concurrent.futures import ThreadPoolExecutor
@@ -188,7 +187,7 @@ def test_two_training_lanes_give_the_networks_of_one_after_another(collection, m
     for a, b in zip(one.log_proba(inputs), two.log_proba(inputs)):
         np.testing.assert_array_equal(a, b)
     assert lanes == [1, 1, 2]
-    for a, b in zip([one.main.stage1, *one.halves, one.main.stage2], [two.main.stage1, *two.halves, two.main.stage2]):
+    for a, b in zip([one.main.stage1, *one.fold_nets, one.main.stage2], [two.main.stage1, *two.fold_nets, two.main.stage2]):
         for (name, x), y in zip(a.net.state_dict().items(), b.net.state_dict().values()):
             assert torch.equal(x, y), name
         np.testing.assert_array_equal(a.mean, b.mean)
@@ -417,7 +416,7 @@ def test_a_run_continues_the_networks_of_an_earlier_one(collection, monkeypatch)
 
     shapes, gts, snaps = collection
     last = snaps[-1]
-    assert len(last.model.halves) == 2 and last.held_out is not None
+    assert len(last.model.fold_nets) == 3 and last.held_out is not None
     assert [h is not None for h in last.held_out] == [s.is_scribbled for s in shapes]
     fits = []
     fit = FaceClassifier.fit
@@ -431,3 +430,12 @@ def test_a_run_continues_the_networks_of_an_earlier_one(collection, monkeypatch)
     *_, fresh = segment_collection(shapes, (*LABELS[:2], "other"), PARAMS, warm=dataclasses.replace(
         last.model, label_names=("x", "y", "z")))
     assert fits[:4] == [False] * 4 and fresh.model is not None
+
+
+def test_fold_count_leaves_one_out_of_few_shapes_within_the_budget_of_two_halves():
+    from scribbleseg_core.engine.optimize import FOLD_BUDGET, fold_count
+
+    assert [fold_count(n) for n in (0, 1, 2, 3, 5, 6, 7, 10, 11, 20, 40)] == [0, 0, 2, 3, 5, 4, 3, 3, 2, 2, 2]
+    for n in range(2, 41):
+        k = fold_count(n)
+        assert 2 <= k <= n and ((k - 1) * n <= FOLD_BUDGET or k == 2)
