@@ -392,12 +392,15 @@ def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentP
 
 
 def fold_count(n: int) -> int:
-    """Folds of `n` scribbled shapes for the held-out networks: as many as keep their training
-    within that of two halves of 20 shapes, ``(K − 1) n ≤`` :data:`FOLD_BUDGET`, between 2 and
-    `n`. Leave one out up to 5 shapes (each network then learns from all shapes but one, not
-    from half of a few), 4 folds for 6, 3 from 7 to 10, two halves from 11 on; 0 for fewer
-    than 2."""
-    return 0 if n < 2 else max(2, min(n, 1 + FOLD_BUDGET // n))
+    """Folds of `n` scribbled shapes for the held-out networks: from 4 shapes on, as many as
+    keep their training within that of two halves of 20 shapes, ``(K − 1) n ≤``
+    :data:`FOLD_BUDGET`, at least 2: leave one out for 4 and 5 shapes (each network then
+    learns from all shapes but one, not from half of a few), 4 folds for 6, 3 from 7 to 10,
+    two halves from 11 on. Two halves for 2 and 3 shapes, where leaving one out measured no
+    better (``docs/benchmarks.md``); 0 for fewer than 2."""
+    if n < 2:
+        return 0
+    return 2 if n <= 3 else max(2, min(n, 1 + FOLD_BUDGET // n))
 
 
 #: Scribbled shapes' worth of training that the held-out networks of one round may take

@@ -103,7 +103,7 @@ def test_shapes_without_scribbles_train_nothing(collection):
         net.fit(inputs, labels[:3] + [other])
         weights.append([p.detach().numpy().copy() for p in net.main.stage1.net.parameters()])
         assert net.held_out_log_proba(inputs)[3] is None  # no network saw its labels
-        assert [h.trained for h in net.fold_nets] == [True, True, True]  # 3 scribbled shapes: leave one out
+        assert [h.trained for h in net.fold_nets] == [True, True]  # the halves split shapes 0 and 2 from 1
     for a, b in zip(*weights):
         np.testing.assert_array_equal(a, b)
 
@@ -143,7 +143,7 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     net = optimize._Networks(inputs[0].shape[1], k, PARAMS.network, 0.0, [s.is_scribbled for s in shapes],
                              lambda i: shapes[i].label_context)
     net.fit(inputs, labels)
-    assert len(net.fold_nets) == 3 and net.main.stage2.num_inputs == inputs[0].shape[1] + 2 * k
+    assert len(net.fold_nets) == 2 and net.main.stage2.num_inputs == inputs[0].shape[1] + 2 * k
     used = [i for i, lab in enumerate(labels) if lab is not None]
     assert sorted(i for i, _ in seen) == used
     for i, lp in seen:
@@ -158,10 +158,12 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     assert next(x for x in segment_collection(shapes, LABELS, off) if x.model).model.learner.stage2 is None
 
 
-def test_two_training_lanes_give_the_networks_of_one_after_another(collection, monkeypatch):
+@pytest.mark.parametrize("all_scribbled", [False, True], ids=["two halves", "four folds"])
+def test_two_training_lanes_give_the_networks_of_one_after_another(collection, monkeypatch, all_scribbled):
     """With two threads to use, the fold networks, stage 1 and stage 2 train in two lanes at once
     (one torch thread each), and the shapes' probabilities come two at a time; every network
-    and every probability comes out as when computed one after another."""
+    and every probability comes out as when computed one after another. With all four shapes
+    scribbled (their last labels taken as given), four folds: one shape left out of each."""
     from concurrent.futures import ThreadPoolExecutor
 
     import torch
@@ -170,19 +172,21 @@ def test_two_training_lanes_give_the_networks_of_one_after_another(collection, m
 
     shapes, _, snaps = collection
     inputs = [PARAMS.network_input(s) for s in shapes]
-    labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
+    mixed = [True] * len(shapes) if all_scribbled else [s.is_scribbled for s in shapes]
+    labels = [lab if m else None for m, lab in zip(mixed, snaps[-1].labels)]
     lanes = []
     monkeypatch.setattr(optimize, "ThreadPoolExecutor", lambda n: lanes.append(n) or ThreadPoolExecutor(n))
 
     def trained(threads):
         params = dataclasses.replace(PARAMS.network, threads=threads)
-        net = optimize._Networks(inputs[0].shape[1], len(LABELS), params, 0.7, [s.is_scribbled for s in shapes],
+        net = optimize._Networks(inputs[0].shape[1], len(LABELS), params, 0.7, mixed,
                                  lambda i: shapes[i].label_context)
         for _ in range(2):  # from scratch, then warm
             net.fit(inputs, labels)
         return net
 
     one, two = trained(1), trained(2)
+    assert len(one.fold_nets) == (4 if all_scribbled else 2)
     assert lanes == [1, 1]  # only the run with two threads took the lanes, in both fits
     for a, b in zip(one.log_proba(inputs), two.log_proba(inputs)):
         np.testing.assert_array_equal(a, b)
@@ -416,7 +420,7 @@ def test_a_run_continues_the_networks_of_an_earlier_one(collection, monkeypatch)
 
     shapes, gts, snaps = collection
     last = snaps[-1]
-    assert len(last.model.fold_nets) == 3 and last.held_out is not None
+    assert len(last.model.fold_nets) == 2 and last.held_out is not None
     assert [h is not None for h in last.held_out] == [s.is_scribbled for s in shapes]
     fits = []
     fit = FaceClassifier.fit
@@ -435,7 +439,34 @@ def test_a_run_continues_the_networks_of_an_earlier_one(collection, monkeypatch)
 def test_fold_count_leaves_one_out_of_few_shapes_within_the_budget_of_two_halves():
     from scribbleseg_core.engine.optimize import FOLD_BUDGET, fold_count
 
-    assert [fold_count(n) for n in (0, 1, 2, 3, 5, 6, 7, 10, 11, 20, 40)] == [0, 0, 2, 3, 5, 4, 3, 3, 2, 2, 2]
+    assert [fold_count(n) for n in (0, 1, 2, 3, 4, 5, 6, 7, 10, 11, 20, 40)] == [0, 0, 2, 2, 4, 5, 4, 3, 3, 2, 2, 2]
     for n in range(2, 41):
         k = fold_count(n)
         assert 2 <= k <= n and ((k - 1) * n <= FOLD_BUDGET or k == 2)
+
+
+def test_each_fold_network_learns_from_the_other_folds_only(collection, monkeypatch):
+    """Four scribbled shapes: four folds, each network trained on the three shapes it does not
+    hold out, and stage 2 on the probabilities of the network that left the shape out."""
+    from scribbleseg_core.engine import optimize
+    from scribbleseg_core.engine.network import FaceClassifier
+
+    shapes, _, snaps = collection
+    inputs = [PARAMS.network_input(s) for s in shapes]
+    labels = list(snaps[-1].labels)
+    seen = {}  # network -> ids of the shapes it was trained on
+    fit = FaceClassifier.fit
+
+    def recording_fit(self, X, y, **kw):
+        seen[id(self)] = [next(i for i, x in enumerate(inputs) if x is xi) for xi in X]
+        return fit(self, X, y, **kw)
+
+    monkeypatch.setattr(FaceClassifier, "fit", recording_fit)
+    net = optimize._Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [True] * 4)
+    net.fit(inputs, labels)
+    assert list(net.fold_of) == [0, 1, 2, 3]
+    for f, fold_net in enumerate(net.fold_nets):
+        assert seen[id(fold_net)] == [i for i in range(4) if i != f]
+    assert seen[id(net.main.stage1)] == [0, 1, 2, 3]
+    for i, x in enumerate(inputs):
+        np.testing.assert_array_equal(net.held_out_log_proba(inputs)[i], net.fold_nets[i].log_proba(x))
