@@ -168,14 +168,8 @@ class LabelContext:
     def of(cls, dist: SourceDistances, area: np.ndarray) -> LabelContext:
         """Prepare from a shape's :class:`SourceDistances` and its face areas (m,)."""
         Dn, reach, a = dist.normalized(area)
-        if reach.all():  # one component: no masking (the same values, in place)
-            nearest = Dn.min(axis=0)
-            Z = Dn - nearest
-            Z /= -SOFTNESS
-            np.exp(Z, out=Z)
-        else:
-            nearest = np.where(reach, Dn, np.inf).min(axis=0)
-            Z = np.where(reach, np.exp(-(Dn - nearest) / SOFTNESS), 0.0)
+        nearest = np.where(reach, Dn, np.inf).min(axis=0)
+        Z = np.where(reach, np.exp(-(Dn - nearest) / SOFTNESS), 0.0)
         return cls(dist.source_face, a, Dn.astype(np.float32), Z.astype(np.float32), nearest,
                    None if reach.all() else reach)
 

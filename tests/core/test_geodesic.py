@@ -5,14 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from scribbleseg_core.geometry.measures import face_areas, face_centroids
-from scribbleseg_core.signatures.geodesic import (
-    FAR,
-    SOFTNESS,
-    LabelContext,
-    cached_source_distances,
-    label_distances,
-    source_distances,
-)
+from scribbleseg_core.signatures.geodesic import FAR, cached_source_distances, label_distances, source_distances
 
 
 def grid(nx: int, ny: int, x0: float = 0.0):
@@ -74,15 +67,3 @@ def test_a_label_absent_from_a_component_is_far(tmp_path):
     L = label_distances(d, face_areas(V, F), proba)
     assert (L[len(F1):, 0] == FAR).all() and (L[len(F1):, 2] == FAR).all()
     assert (L[: len(F1), 0] < FAR).all()
-
-
-def test_label_context_of_one_component_is_the_masked_formula():
-    V, F = grid(12, 3)
-    d, area = source_distances(V, F, num_sources=8), face_areas(V, F)
-    Dn, reach, _ = d.normalized(area)
-    assert reach.all()
-    nearest = np.where(reach, Dn, np.inf).min(axis=0)
-    ctx = LabelContext.of(d, area)
-    assert ctx.reach is None
-    np.testing.assert_array_equal(ctx.nearest, nearest)
-    np.testing.assert_array_equal(ctx.Z, np.where(reach, np.exp(-(Dn - nearest) / SOFTNESS), 0.0).astype(np.float32))
