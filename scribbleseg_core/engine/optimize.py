@@ -391,6 +391,11 @@ def _continues(warm: TrainedModel, fresh: Learner, label_names, params: SegmentP
             and (a.stage2 is None or a.stage2.num_inputs == b.stage2.num_inputs))
 
 
+#: Scribbled shapes' worth of training that the held-out networks of one round may take
+#: together (:func:`fold_count`): that of two halves of a 20-shape collection.
+FOLD_BUDGET = 20
+
+
 def fold_count(n: int) -> int:
     """Folds of `n` scribbled shapes for the held-out networks: from 4 shapes on, as many as
     keep their training within that of two halves of 20 shapes, ``(K − 1) n ≤``
@@ -401,11 +406,6 @@ def fold_count(n: int) -> int:
     if n < 2:
         return 0
     return 2 if n <= 3 else max(2, min(n, 1 + FOLD_BUDGET // n))
-
-
-#: Scribbled shapes' worth of training that the held-out networks of one round may take
-#: together (:func:`fold_count`): that of two halves of a 20-shape collection.
-FOLD_BUDGET = 20
 
 
 class _Networks:
