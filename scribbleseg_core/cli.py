@@ -230,7 +230,8 @@ def _cmd_bench(args) -> int:
     cats = args.categories or categories(root)
     _signature_pass([m for c in cats if (root / c).is_dir() for m in find_meshes(root / c)], args)
     report = bench(root, out, modes=modes, cats=args.categories, folds=args.folds,
-                   scribbled=args.scribbled, coverage=args.coverage, seed=args.seed, labels=args.labels,
+                   scribbled=args.scribbled, coverage=args.coverage, strokes=args.strokes, seed=args.seed,
+                   labels=args.labels,
                    params=params, progress=progress)
     print((out / "report.md").read_text())
     return 0 if report["verified"] else 1
@@ -346,6 +347,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scribbled", type=_int_at_least(1), nargs="+", default=[1, 3, 5, 10],
                    help="collection mode: shapes per category that keep their scribbles")
     p.add_argument("--coverage", type=_fraction, default=1.0, help="keep this central fraction of every stroke")
+    p.add_argument("--strokes", choices=["all", "one"], default="all",
+                   help="'one': keep only the longest stroke of every label on a shape (one leg of four painted)")
     p.add_argument("--categories", nargs="+")
     p.add_argument("--method", choices=METHODS, default="face",
                    help="face: the alternation on faces (default); paper: the paper's patch-level alternation")

@@ -104,6 +104,24 @@ def keep_coverage(scr: Scribbles | None, coverage: float) -> Scribbles | None:
     return replace(scr, strokes=tuple(strokes))
 
 
+#: How many of a shape's strokes a benchmark keeps: ``"all"``, or ``"one"`` per label (its longest).
+STROKE_SETS = ("all", "one")
+
+
+def keep_strokes(scr: Scribbles | None, strokes: str) -> Scribbles | None:
+    """The strokes of `scr` a benchmark keeps (:data:`STROKE_SETS`): with ``"one"``, of every
+    label only its longest stroke (the first of equals), as a user paints one leg of four."""
+    if strokes not in STROKE_SETS:
+        raise ValueError(f"strokes must be one of {', '.join(STROKE_SETS)}; got {strokes!r}")
+    if scr is None or strokes == "all":
+        return scr
+    longest: dict[int, Stroke] = {}
+    for s in scr.strokes:
+        if s.label not in longest or len(s.faces) > len(longest[s.label].faces):
+            longest[s.label] = s
+    return replace(scr, strokes=tuple(s for s in scr.strokes if longest[s.label] is s))
+
+
 def shape_scores(item: Item, labels_file: np.ndarray) -> dict:
     """Every metric of one shape's predicted file-face labels."""
     V, F, gt = item.mesh.V_file, item.mesh.F_file, item.truth
@@ -152,14 +170,15 @@ class _Clock(dict):
 
 
 def run_mode(items, names, mode: str, params: SegmentParams, *, folds=5, scribbled=None, coverage=1.0, seed=0,
-             labels: str = "scribbles"):
+             labels: str = "scribbles", strokes: str = "all"):
     """Predicted file-face labels per scored shape, ``{index: labels}`` (``{(group, index):
     labels}`` in mode ``given``), and the seconds the mode took per part (:data:`TIME_PARTS`). With ``labels="truth"`` the
     painted shapes are given their full ground-truth labels instead of their scribbles (a
-    fully labeled shape, as a ``.seg`` file beside a mesh)."""
+    fully labeled shape, as a ``.seg`` file beside a mesh). `strokes` and `coverage` thin the
+    scribbles first (:func:`keep_strokes`, :func:`keep_coverage`)."""
     if labels not in LABEL_SOURCES:
         raise ValueError(f"labels must be one of {', '.join(LABEL_SOURCES)}; got {labels!r}")
-    scr = [keep_coverage(it.scribbles, coverage) for it in items]
+    scr = [keep_coverage(keep_strokes(it.scribbles, strokes), coverage) for it in items]
     n = len(items)
     if labels == "truth":
         scr = [it.truth if s is not None else None for it, s in zip(items, scr)]
@@ -209,12 +228,13 @@ def _mean(rows, key):
 
 
 def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5, scribbled=(1, 3, 5, 10),
-          coverage=1.0, seed=0, labels="scribbles", params: SegmentParams | None = None, progress=None) -> dict:
+          coverage=1.0, seed=0, labels="scribbles", strokes="all", params: SegmentParams | None = None,
+          progress=None) -> dict:
     """Run the benchmark and write the report into `out`; returns the report."""
     params = params or SegmentParams()
     cats = cats or list_categories(root)
     report = {"settings": {"modes": list(modes), "folds": folds, "scribbled": list(scribbled), "coverage": coverage,
-                           "seed": seed, "labels": labels, "method": params.method, "rounds": params.rounds,
+                           "strokes": strokes, "seed": seed, "labels": labels, "method": params.method, "rounds": params.rounds,
                            "context_scales": list(params.context_scales),
                            "local_shape": params.local_shape,
                            "label_context": params.label_context,
@@ -231,7 +251,7 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
             if progress:
                 progress(f"{cat} {key}")
             preds, sec = run_mode(items, names, mode, params, folds=folds, scribbled=k, coverage=coverage, seed=seed,
-                                  labels=labels)
+                                  labels=labels, strokes=strokes)
             groups: dict[str, dict] = {}
             for idx, pair in preds.items():
                 group, i = idx if isinstance(idx, tuple) else (key, idx)
