@@ -247,6 +247,7 @@ def _bench_params(args):
     given = lambda **kw: {k: v for k, v in kw.items() if v is not None}  # noqa: E731
     return replace(base, network=replace(base.network, threads=args.threads, **given(seed=args.network_seed)),
                    propagation=replace(base.propagation, **given(contrast=args.contrast, walk=args.walk,
+                                                                 walk_reach=args.walk_reach,
                                                                  convex=args.convex, boundary=args.boundary)),
                    **given(local_shape=args.local_shape, label_context=args.label_context, rounds=args.rounds))
 
@@ -367,6 +368,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="SDF contrast of the face energy's smoothness (default PropagateParams.contrast; 0 = off)")
     p.add_argument("--walk", type=_non_negative, default=None,
                    help="random-walk term of the face energy (default PropagateParams.walk; 0 = off)")
+    p.add_argument("--walk-reach", type=_non_negative, default=None,
+                   help="how far the walk goes before it stops at the network's label (PropagateParams.walk_reach)")
     p.add_argument("--convex", type=_fraction, default=None,
                    help="weight of convex creases against concave ones in the face energy's smoothness and walk "
                         "(default PropagateParams.convex; 0.1 = the dual graph's crease metric)")

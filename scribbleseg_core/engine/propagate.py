@@ -73,6 +73,11 @@ class PropagateParams:
         edges (:mod:`~scribbleseg_core.engine.boundary`): the smoothness of an edge is
         ``boundary · (ℓ / mean ℓ) · −log max(P_b, 1e-4)`` in place of the crease rule and the
         contrast. 0 turns it off (the engine then trains no boundary classifier). Default 16.
+    walk_reach : float
+        With the network, the random walk may stop before it meets a stroke and take the
+        network's label where it stops, after crossing about this fraction of the shape's
+        width (:class:`RandomWalk`): the parts no stroke of their label reaches follow the
+        network. 0: the walk always runs to a stroke. Default 0.
     """
 
     distance: float = 0.1
@@ -84,6 +89,7 @@ class PropagateParams:
     walk: float = 1.0
     convex: float = 0.02
     boundary: float = 16.0
+    walk_reach: float = 0.0
 
 
 def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int,
@@ -176,7 +182,8 @@ class FaceEnergy:
             if params.contrast > 0 and sdf is not None:
                 w = w * contrast_factor(graph, sdf, params.contrast, CONTRAST_FLOOR)
             self.weights = w
-        self._walk = None
+        self._walker: RandomWalk | None = None
+        self._walk: tuple[np.ndarray | None, np.ndarray] | None = None
         m = graph.num_faces
         if self.strokes.size == 0:
             self.reached = np.zeros(m, bool)
@@ -200,13 +207,19 @@ class FaceEnergy:
     def is_scribbled(self) -> bool:
         return self.strokes.size > 0
 
-    def walk(self) -> np.ndarray:
-        """(m, k) ``−log`` of the random-walker probabilities from the strokes (computed once)."""
-        if self._walk is None:
-            P = random_walk_probabilities(self.graph, self.scribble, self.k, self.params.crease, self.params.convex,
-                                          self.clusters)
-            self._walk = -np.log(np.maximum(P, 1e-6))
-        return self._walk
+    def walk(self, log_proba: np.ndarray | None = None) -> np.ndarray:
+        """(m, k) ``−log`` of the random-walker probabilities from the strokes, with the
+        probabilities of `log_proba` as its prior when ``params.walk_reach > 0``
+        (:class:`RandomWalk`; factorized once, the last prior's result kept)."""
+        if self._walker is None:
+            self._walker = RandomWalk(self.graph, self.scribble, self.k, self.params.crease, self.params.convex,
+                                      self.clusters, self.params.walk_reach)
+        with_prior = self.params.walk_reach > 0
+        key = log_proba if with_prior else None
+        if self._walk is None or self._walk[0] is not key:
+            P = self._walker.probabilities(np.exp(log_proba) if with_prior else None)
+            self._walk = (key, -np.log(np.maximum(P, 1e-6)))
+        return self._walk[1]
 
     def unary(self, log_proba: np.ndarray | None = None) -> np.ndarray:
         """(m, k) unary costs, with the network's log-probabilities when given."""
@@ -217,7 +230,7 @@ class FaceEnergy:
             if self.is_scribbled:
                 U[self.reached] = np.where(self._scribbled_labels[None, :], U[self.reached], INF)
                 if p.walk > 0:  # only beside the network: see PropagateParams.walk
-                    U += p.walk * self.walk()
+                    U += p.walk * self.walk(log_proba)
         elif self.is_scribbled:
             most = np.bincount(self.scribble[s], minlength=self.k).argmax()
             U[~self.reached] = np.where(np.arange(self.k) == most, 0.0, 1.0)
@@ -309,13 +322,15 @@ def propagate_shape(shape, k: int, params: PropagateParams = PropagateParams(),
 
 
 def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, crease: float,
-                              convex: float = CONVEX_FACTOR, clusters: np.ndarray | None = None) -> np.ndarray:
+                              convex: float = CONVEX_FACTOR, clusters: np.ndarray | None = None,
+                              prior: np.ndarray | None = None, reach: float = 0.0) -> np.ndarray:
     """Random-walker label probabilities from the scribbles (a harmonic field per label).
 
     Solves ``L_uu X_u = −L_us X_s`` on the face graph with edge weights ``(ℓ / centroid
     distance) · exp(−concavity / crease)``: X_s one-hot on scribbled faces, so X(f, l) is
     the probability that a random walk from f reaches a stroke of label l first. Faces in
-    components without scribbles get 0 for every label.
+    components without scribbles get 0 for every label. With a `prior` and a `reach`, the
+    walk may also stop at every step and take the prior's label there (:class:`RandomWalk`).
 
     Parameters
     ----------
@@ -333,42 +348,90 @@ def random_walk_probabilities(graph: DualGraph, scribble: np.ndarray, k: int, cr
         solved on the graph of the clusters (each split by the strokes' labels, arc weights
         summed) and every face takes its cluster's probabilities; several times faster on
         large meshes (the app's preview).
+    prior : (m, k) float ndarray, optional
+        Label probabilities per face, where the walk may stop (:class:`RandomWalk`).
+    reach : float
+        How far the walk goes before it stops at the prior (:class:`RandomWalk`); 0: never.
 
     Returns
     -------
     P : (m, k) float64 ndarray
         Rows sum to 1 where reached; columns of labels not scribbled are 0.
     """
-    scribble = np.asarray(scribble, dtype=np.int64)
-    w = graph.diffusion_weights * np.exp(-graph.concavity(convex) / crease)
-    w = np.maximum(w, 1e-9 * max(pair_mean(w), 1e-300))  # sharp creases: weak, never cut off
-    if clusters is None:
-        return _harmonic(graph.laplacian(w), scribble, k)
-    coarse, pairs, weights = coarsen(clusters, scribble, graph.pairs, w)
-    c = int(coarse.max()) + 1 if coarse.size else 0
-    seed = np.full(c, -1, np.int64)
-    seed[coarse] = scribble  # a coarse node's faces share their stroke label, or have none
-    return _harmonic(pair_laplacian(pairs, weights, c), seed, k)[coarse]
+    return RandomWalk(graph, scribble, k, crease, convex, clusters, reach).probabilities(prior)
 
 
-def _harmonic(L: sp.csr_matrix, scribble: np.ndarray, k: int) -> np.ndarray:
-    """(n, k) harmonic label probabilities on the graph of Laplacian `L` (n, n) from the seed
-    label per node `scribble` (n,), -1 where free (:func:`random_walk_probabilities`)."""
-    m = L.shape[0]
-    seeded = scribble >= 0
-    P = np.zeros((m, k))
-    P[seeded, scribble[seeded]] = 1.0
-    # only components holding a stroke are solved (elsewhere the system is singular)
-    _, comp = connected_components(L, directed=False)
-    live = np.isin(comp, comp[seeded])
-    u, s = np.flatnonzero(live & ~seeded), np.flatnonzero(seeded)
-    present = np.unique(scribble[s])
-    if u.size == 0 or present.size == 0:
-        return P
-    Lu = L[u]
-    rhs = -(Lu[:, s] @ P[np.ix_(s, present)])
-    P[np.ix_(u, present)] = sla.splu(Lu[:, u].tocsc()).solve(np.ascontiguousarray(rhs))
-    return np.clip(P, 0.0, 1.0)
+class RandomWalk:
+    """The random walker from the strokes of one shape, factorized once, solved for any prior.
+
+    Without a prior (``reach = 0``) a walk from a free face wanders until it meets a stroke and
+    takes its label (Grady 2006). With a prior it also stops at every step, with probability
+    ``γ / (1 + γ)``, and takes a label drawn from the prior at the face where it stops (random
+    walks with prior models: Grady 2005): ``(L_uu + γ D_u) X_u = −L_us X_s + γ D_u Λ_u``, D the
+    graph's degrees. A walk takes about ``1 / γ`` steps before it stops, and spreads over about
+    the square root of that many faces, so ``γ = 1 / (reach² · n)`` for n nodes: it stops after
+    crossing about `reach` of a shape's width of faces. Where the strokes are near or reachable
+    the walk still meets them; in a part that no stroke of its label reaches, behind a crease
+    that the walk rarely crosses (the three legs left unpainted when one was), the prior
+    decides. ``L_uu + γ D_u`` does not depend on the prior: it is factorized once.
+
+    Parameters are those of :func:`random_walk_probabilities`.
+    """
+
+    def __init__(self, graph: DualGraph, scribble: np.ndarray, k: int, crease: float,
+                 convex: float = CONVEX_FACTOR, clusters: np.ndarray | None = None, reach: float = 0.0):
+        scribble = np.asarray(scribble, dtype=np.int64)
+        w = graph.diffusion_weights * np.exp(-graph.concavity(convex) / crease)
+        w = np.maximum(w, 1e-9 * max(pair_mean(w), 1e-300))  # sharp creases: weak, never cut off
+        self.k, self.coarse = k, None
+        if clusters is None:
+            L, seed = graph.laplacian(w), scribble
+        else:
+            self.coarse, pairs, weights = coarsen(clusters, scribble, graph.pairs, w)
+            c = int(self.coarse.max()) + 1 if self.coarse.size else 0
+            seed = np.full(c, -1, np.int64)
+            seed[self.coarse] = scribble  # a coarse node's faces share their stroke label, or have none
+            L = pair_laplacian(pairs, weights, c)
+        n = L.shape[0]
+        seeded = seed >= 0
+        self.base = np.zeros((n, k))
+        self.base[seeded, seed[seeded]] = 1.0
+        # only components holding a stroke are solved (elsewhere the walk with no prior is singular)
+        _, comp = connected_components(L, directed=False)
+        live = np.isin(comp, comp[seeded])
+        self.u, s = np.flatnonzero(live & ~seeded), np.flatnonzero(seeded)
+        self.present = np.unique(seed[s])
+        self.gamma = 1.0 / (reach * reach * n) if reach > 0 and n else 0.0
+        self._solve = None
+        if self.u.size == 0 or self.present.size == 0:
+            return
+        Lu = L[self.u]
+        self.rhs = -(Lu[:, s] @ self.base[np.ix_(s, self.present)])
+        self.stop = self.gamma * L.diagonal()[self.u]
+        self._solve = sla.splu((Lu[:, self.u] + sp.diags(self.stop)).tocsc()).solve
+
+    def probabilities(self, prior: np.ndarray | None = None) -> np.ndarray:
+        """(m, k) float64 label probabilities of the walk; `prior` (m, k) rows of label
+        probabilities (renormalized over the labels painted on the shape), needed when the
+        walk has a reach."""
+        P = self.base.copy()
+        if self._solve is not None:
+            rhs = self.rhs
+            if self.gamma > 0:
+                if prior is None:
+                    raise ValueError("a random walk with a reach needs a prior")
+                prior = np.asarray(prior, dtype=np.float64)
+                if self.coarse is not None:  # a cluster's prior: the mean of its faces'
+                    total = np.zeros((len(self.base), self.k))
+                    np.add.at(total, self.coarse, prior)
+                    prior = total / np.maximum(np.bincount(self.coarse, minlength=len(self.base)), 1)[:, None]
+                lam = prior[np.ix_(self.u, self.present)]
+                mass = lam.sum(axis=1, keepdims=True)
+                lam = np.where(mass > 0, lam / np.where(mass > 0, mass, 1.0), 1.0 / len(self.present))
+                rhs = rhs + self.stop[:, None] * lam
+            P[np.ix_(self.u, self.present)] = self._solve(np.ascontiguousarray(rhs))
+        P = np.clip(P, 0.0, 1.0)
+        return P if self.coarse is None else P[self.coarse]
 
 
 def learned_weights(graph: DualGraph, boundary_proba: np.ndarray, weight: float) -> np.ndarray:
