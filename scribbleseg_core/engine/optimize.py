@@ -303,28 +303,28 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     net = _Networks(d, len(problem.label_names), params.network, share, taught, context_of, edges_of)
     if warm is not None and _continues(warm, net.main, problem.label_names, params):
         net.continue_from(warm, params.network.threads)
-    model, logp, best, it = None, None, np.inf, 0
+    model, logp, prior, best, it = None, None, None, np.inf, 0
     trained_on = None  # the labels the kept networks were trained on
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
         previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
         net.fit(inputs, labels)  # the networks learn from the shapes `taught` only
-        new_logp = net.log_proba(inputs)
+        new_logp, new_prior = net.log_proba(inputs)
         new_model = net.model(problem)
         problem.use(new_model)
-        e_train = problem.energy(labels, new_logp)
+        e_train = problem.energy(labels, new_logp, new_prior)
         if previous is not None and e_train.total > energy.total:
             net = previous  # training did not lower E: keep the learner that made these labels
             problem.use(model)
             break
-        logp, energy, model, trained_on = new_logp, e_train, new_model, labels
+        logp, prior, energy, model, trained_on = new_logp, new_prior, e_train, new_model, labels
         yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
                        model)
         t = time.perf_counter()
-        new = problem.cut(labels, logp)
+        new = problem.cut(labels, logp, prior)
         changed = tuple(b is not None and (a is None or not np.array_equal(a, b)) for a, b in zip(labels, new))
-        labels, energy = new, problem.energy(new, logp)
+        labels, energy = new, problem.energy(new, logp, prior)
         yield Snapshot(it, "graphcut", energy, _frozen(labels, problem.shapes), changed, time.perf_counter() - t, model)
         converged = (not any(c and painted for c, painted in zip(changed, taught))
                      or energy.total > best * (1 - TOLERANCE))
@@ -583,27 +583,31 @@ class _Networks:
         its labels (those the last fit computed, else now); None where there is none."""
         return [None if x is None else self._held_out_log_proba(i, x) for i, x in enumerate(inputs)]
 
-    def log_proba(self, inputs) -> list[np.ndarray | None]:
+    def log_proba(self, inputs) -> tuple[list[np.ndarray | None], list[np.ndarray | None]]:
         """Per shape, the network term's log-probabilities (m_s, k) (None where no input): the
-        learner's, mixed with the held-out network's on scribbled shapes (cross-fitting). With
-        two or more torch threads, two shapes at a time on one thread each."""
+        learner's, mixed with the held-out network's on scribbled shapes (cross-fitting); and
+        the learner's alone, the prior of the random walk
+        (:class:`~scribbleseg_core.engine.propagate.RandomWalk`). With two or more torch
+        threads, two shapes at a time on one thread each."""
         two = self._two_lanes and sum(x is not None for x in inputs) >= 2
         main = self.main.with_threads(1) if two else self.main
         threads = 1 if two else None
 
-        def one(i: int, x: np.ndarray | None) -> np.ndarray | None:
+        def one(i: int, x: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
             if x is None:
-                return None
+                return None, None
             own = main.log_proba(x, self.context_of(i) if main.stage2 is not None else None)
             held = self._held_out_log_proba(i, x, threads=threads) if self.share > 0 and self.mixed[i] else None
             if held is None:
-                return own
-            return np.logaddexp(np.log1p(-self.share) + own, np.log(self.share) + held)
+                return own, own
+            return np.logaddexp(np.log1p(-self.share) + own, np.log(self.share) + held), own
 
         if not two:
-            return [one(i, x) for i, x in enumerate(inputs)]
-        with ThreadPoolExecutor(2) as pool:
-            return list(pool.map(one, range(len(inputs)), inputs))
+            terms = [one(i, x) for i, x in enumerate(inputs)]
+        else:
+            with ThreadPoolExecutor(2) as pool:
+                terms = list(pool.map(one, range(len(inputs)), inputs))
+        return [t[0] for t in terms], [t[1] for t in terms]
 
 
 class _FaceProblem:
@@ -635,17 +639,20 @@ class _FaceProblem:
             if not s.is_scribbled:
                 self.energies[i] = FaceEnergy(s.graph, s.scribble, k, p, s.sdf, model.boundary_proba(s))
 
-    def cut(self, labels, logp) -> list[np.ndarray]:
+    def cut(self, labels, logp, prior) -> list[np.ndarray]:
         """The scribbled shapes' cuts from their labels; the others' from scratch, as
-        :func:`~scribbleseg_core.engine.predict.predict_shape` cuts a new shape."""
-        return [e.cut(lp, init=lab if e.is_scribbled else None) for e, lab, lp in zip(self.energies, labels, logp)]
+        :func:`~scribbleseg_core.engine.predict.predict_shape` cuts a new shape. `logp` and
+        `prior`: :meth:`_Networks.log_proba`."""
+        return [e.cut(lp, init=lab if e.is_scribbled else None, prior=pr)
+                for e, lab, lp, pr in zip(self.energies, labels, logp, prior)]
 
-    def energy(self, labels, logp) -> EnergyTerms:
+    def energy(self, labels, logp, prior=None) -> EnergyTerms:
         """Summed over the scribbled shapes that have labels."""
         total = EnergyTerms(0.0, 0.0 if logp is not None else float("nan"), 0.0)
         for i, (e, lab) in enumerate(zip(self.energies, labels)):
             if lab is not None and e.is_scribbled:
-                total = total + EnergyTerms(*e.terms(lab, None if logp is None else logp[i]))
+                terms = e.terms(lab, None if logp is None else logp[i], None if prior is None else prior[i])
+                total = total + EnergyTerms(*terms)
         return total
 
     def model(self, learner: Learner) -> TrainedModel:
@@ -682,12 +689,12 @@ class _PatchProblem:
                   for U, s, w in zip(self.U_scr, self.shapes, self.W)]
         return self._faces()
 
-    def cut(self, labels, logp) -> list[np.ndarray | None]:
+    def cut(self, labels, logp, prior=None) -> list[np.ndarray | None]:
         self.y = [None if U is None else alpha_expansion(U + network_unary(P, lp), s.patch_pairs, w, init=y)
                   for U, P, lp, s, w, y in zip(self.U_scr, self.P, logp, self.shapes, self.W, self.y)]
         return self._faces()
 
-    def energy(self, labels, logp) -> EnergyTerms:
+    def energy(self, labels, logp, prior=None) -> EnergyTerms:
         total = EnergyTerms(0.0, 0.0 if logp is not None else float("nan"), 0.0)
         for i, (U, s, w, y) in enumerate(zip(self.U_scr, self.shapes, self.W, self.y)):
             if U is not None:

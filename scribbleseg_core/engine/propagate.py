@@ -207,22 +207,25 @@ class FaceEnergy:
     def is_scribbled(self) -> bool:
         return self.strokes.size > 0
 
-    def walk(self, log_proba: np.ndarray | None = None) -> np.ndarray:
+    def walk(self, prior: np.ndarray | None = None) -> np.ndarray:
         """(m, k) ``−log`` of the random-walker probabilities from the strokes, with the
-        probabilities of `log_proba` as its prior when ``params.walk_reach > 0``
-        (:class:`RandomWalk`; factorized once, the last prior's result kept)."""
+        probabilities of the log-probabilities `prior` (m, k) as its prior when
+        ``params.walk_reach > 0`` (:class:`RandomWalk`; factorized once, the last prior's
+        result kept)."""
         if self._walker is None:
             self._walker = RandomWalk(self.graph, self.scribble, self.k, self.params.crease, self.params.convex,
                                       self.clusters, self.params.walk_reach)
         with_prior = self.params.walk_reach > 0
-        key = log_proba if with_prior else None
+        key = prior if with_prior else None
         if self._walk is None or self._walk[0] is not key:
-            P = self._walker.probabilities(np.exp(log_proba) if with_prior else None)
+            P = self._walker.probabilities(np.exp(np.asarray(prior, dtype=np.float64)) if with_prior else None)
             self._walk = (key, -np.log(np.maximum(P, 1e-6)))
         return self._walk[1]
 
-    def unary(self, log_proba: np.ndarray | None = None) -> np.ndarray:
-        """(m, k) unary costs, with the network's log-probabilities when given."""
+    def unary(self, log_proba: np.ndarray | None = None, prior: np.ndarray | None = None) -> np.ndarray:
+        """(m, k) unary costs, with the network's log-probabilities when given; `prior`
+        (m, k), the log-probabilities of the random walk's prior (:meth:`walk`), defaults to
+        `log_proba`."""
         p, s = self.params, self.strokes
         U = self._distance.copy()
         if log_proba is not None and p.network > 0:
@@ -230,7 +233,7 @@ class FaceEnergy:
             if self.is_scribbled:
                 U[self.reached] = np.where(self._scribbled_labels[None, :], U[self.reached], INF)
                 if p.walk > 0:  # only beside the network: see PropagateParams.walk
-                    U += p.walk * self.walk(log_proba)
+                    U += p.walk * self.walk(log_proba if prior is None else prior)
         elif self.is_scribbled:
             most = np.bincount(self.scribble[s], minlength=self.k).argmax()
             U[~self.reached] = np.where(np.arange(self.k) == most, 0.0, 1.0)
@@ -240,22 +243,24 @@ class FaceEnergy:
         U[s, self.scribble[s]] = 0.0
         return U
 
-    def cut(self, log_proba: np.ndarray | None = None, init: np.ndarray | None = None) -> np.ndarray:
+    def cut(self, log_proba: np.ndarray | None = None, init: np.ndarray | None = None,
+            prior: np.ndarray | None = None) -> np.ndarray:
         """Labels minimizing the energy by alpha-expansion (multilevel with `clusters`),
         (m,) int64; starts from `init` when given (the energy never rises above it), else
-        from the unary argmin."""
-        U = self.unary(log_proba)
+        from the unary argmin. `prior`: :meth:`unary`."""
+        U = self.unary(log_proba, prior)
         if self.clusters is not None:
             return multilevel_alpha_expansion(U, self.pairs, self.weights, self.clusters, init=init, band=BAND,
                                               max_sweeps=MAX_SWEEPS)
         start = np.argmin(U, axis=1) if init is None else init
         return alpha_expansion(U, self.pairs, self.weights, init=start, max_sweeps=MAX_SWEEPS)
 
-    def terms(self, labels: np.ndarray, log_proba: np.ndarray | None = None) -> tuple[float, float, float]:
+    def terms(self, labels: np.ndarray, log_proba: np.ndarray | None = None,
+              prior: np.ndarray | None = None) -> tuple[float, float, float]:
         """The energy of `labels` split into (scribble, network, smoothness); network is
-        NaN without `log_proba`."""
+        NaN without `log_proba`. `prior`: :meth:`unary`."""
         idx = np.arange(len(labels))
-        U = self.unary(log_proba)
+        U = self.unary(log_proba, prior)
         network = float("nan")
         if log_proba is not None and self.params.network > 0:
             net = self.params.network * -np.maximum(np.asarray(log_proba, dtype=np.float64)[idx, labels], -30.0)
@@ -402,21 +407,21 @@ class RandomWalk:
         self.u, s = np.flatnonzero(live & ~seeded), np.flatnonzero(seeded)
         self.present = np.unique(seed[s])
         self.gamma = 1.0 / (reach * reach * n) if reach > 0 and n else 0.0
-        self._solve = None
         if self.u.size == 0 or self.present.size == 0:
             return
         Lu = L[self.u]
         self.rhs = -(Lu[:, s] @ self.base[np.ix_(s, self.present)])
+        self.Luu = Lu[:, self.u].tocsc()
         self.stop = self.gamma * L.diagonal()[self.u]
-        self._solve = sla.splu((Lu[:, self.u] + sp.diags(self.stop)).tocsc()).solve
+        self._solve = sla.splu(self.Luu).solve if self.gamma == 0 else None
 
     def probabilities(self, prior: np.ndarray | None = None) -> np.ndarray:
         """(m, k) float64 label probabilities of the walk; `prior` (m, k) rows of label
         probabilities (renormalized over the labels painted on the shape), needed when the
         walk has a reach."""
         P = self.base.copy()
-        if self._solve is not None:
-            rhs = self.rhs
+        if self.u.size and self.present.size:
+            rhs, solve = self.rhs, self._solve
             if self.gamma > 0:
                 if prior is None:
                     raise ValueError("a random walk with a reach needs a prior")
@@ -428,8 +433,12 @@ class RandomWalk:
                 lam = prior[np.ix_(self.u, self.present)]
                 mass = lam.sum(axis=1, keepdims=True)
                 lam = np.where(mass > 0, lam / np.where(mass > 0, mass, 1.0), 1.0 / len(self.present))
-                rhs = rhs + self.stop[:, None] * lam
-            P[np.ix_(self.u, self.present)] = self._solve(np.ascontiguousarray(rhs))
+                # the walk stops where the prior is sure: a stop at a uniform prior says nothing
+                sure = 1.0 + (lam * np.log(np.maximum(lam, 1e-300))).sum(axis=1) / max(np.log(len(self.present)), 1e-12)
+                stop = self.stop * np.clip(sure, 0.0, 1.0)
+                rhs = rhs + stop[:, None] * lam
+                solve = sla.splu((self.Luu + sp.diags(stop)).tocsc()).solve
+            P[np.ix_(self.u, self.present)] = solve(np.ascontiguousarray(rhs))
         P = np.clip(P, 0.0, 1.0)
         return P if self.coarse is None else P[self.coarse]
 

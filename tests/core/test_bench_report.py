@@ -9,7 +9,7 @@ import pytest
 
 from scribbleseg_core.engine.network import NetworkParams
 from scribbleseg_core.engine.optimize import SegmentParams
-from scribbleseg_core.evaluation.benchmark import bench, keep_coverage, verify
+from scribbleseg_core.evaluation.benchmark import bench, keep_coverage, keep_strokes, verify
 from scribbleseg_core.formats.scribbles import Scribbles, Stroke, write_scribbles
 from scribbleseg_core.formats.seg import write_seg
 from tests.conftest import write_off
@@ -81,6 +81,18 @@ def test_keep_coverage_keeps_the_middle_of_every_stroke():
     np.testing.assert_array_equal(cut.strokes[0].faces, [3, 4, 5, 6])
     assert len(cut.strokes[1].faces) == 1
     assert keep_coverage(scr, 1.0) is scr
+
+
+def test_keep_strokes_keeps_the_longest_stroke_of_every_label():
+    a, b, c, d = (Stroke(0, np.arange(3)), Stroke(1, np.arange(10, 12)), Stroke(0, np.arange(20, 25)),
+                  Stroke(0, np.arange(30, 35)))
+    scr = Scribbles("m.off", 100, ("a", "b"), (a, b, c, d))
+    one = keep_strokes(scr, "one")
+    assert one.strokes == (b, c)  # painting order kept; of equals, the first
+    assert keep_strokes(scr, "all") is scr
+    assert keep_strokes(None, "one") is None
+    with pytest.raises(ValueError, match="strokes"):
+        keep_strokes(scr, "two")
 
 
 def test_reports_run_apart_merge_into_one(tmp_path, planted_root):

@@ -117,11 +117,12 @@ def test_cross_fitting_mixes_in_networks_that_never_saw_the_shape(collection):
     net = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [s.is_scribbled for s in shapes])
     net.fit(inputs, labels)
     assert all(h.trained for h in net.fold_nets)
-    mixed = net.log_proba(inputs)
+    mixed, prior = net.log_proba(inputs)
     for i, (s, x) in enumerate(zip(shapes, inputs)):
         own, other = np.exp(net.main.log_proba(x)), np.exp(net.fold_nets[net.fold_of[i]].log_proba(x))
         expected = 0.3 * own + 0.7 * other if s.is_scribbled else own  # no scribbles: the model alone
         np.testing.assert_allclose(np.exp(mixed[i]), expected, rtol=1e-6)
+        np.testing.assert_allclose(np.exp(prior[i]), own, rtol=1e-6)  # the walk's prior: the model's own
     alone = _Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [True])  # one shape: none held out
     assert alone.fold_nets == []
 
@@ -188,7 +189,7 @@ def test_two_training_lanes_give_the_networks_of_one_after_another(collection, m
     one, two = trained(1), trained(2)
     assert len(one.fold_nets) == (4 if all_scribbled else 2)
     assert lanes == [1, 1]  # only the run with two threads took the lanes, in both fits
-    for a, b in zip(one.log_proba(inputs), two.log_proba(inputs)):
+    for a, b in zip(sum(one.log_proba(inputs), []), sum(two.log_proba(inputs), [])):
         np.testing.assert_array_equal(a, b)
     assert lanes == [1, 1, 2]
     for a, b in zip([one.main.stage1, *one.fold_nets, one.main.stage2], [two.main.stage1, *two.fold_nets, two.main.stage2]):

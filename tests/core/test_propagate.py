@@ -12,6 +12,7 @@ from scribbleseg_core.engine.propagate import (
     CLUSTER_SIZE,
     PropagateParams,
     propagate_scribbles,
+    RandomWalk,
     random_walk_probabilities,
     scribble_distances,
 )
@@ -296,3 +297,52 @@ def test_multilevel_cut_brings_the_parts_back_like_the_full_cut(planted):
     assert (labels == gt).mean() >= 0.95
     sel = scribble >= 0
     np.testing.assert_array_equal(labels[sel], scribble[sel])
+
+
+@pytest.fixture(scope="module")
+def one_limb():
+    """The planted creature painted as a user might: body, head and one of the four limbs."""
+    mesh, gt = creature(1.6, 0.9, seed=0)
+    graph = dual_graph(mesh.normalized(), mesh.F)
+    scribble = np.full(len(gt), -1)
+    for lab in range(len(LABELS)):
+        faces = stroke_faces(mesh, gt, lab)
+        scribble[faces[:6] if LABELS[lab] == "limb" else faces] = lab  # 6 faces a part: one limb
+    return graph, gt, scribble
+
+
+def test_walk_with_the_network_as_prior_finds_the_limbs_left_unpainted(one_limb):
+    graph, gt, scribble = one_limb
+    k, limb = len(LABELS), LABELS.index("limb")
+    unsure = np.log(np.where(np.arange(k)[None, :] == gt[:, None], 0.6, 0.2))  # a network right at 0.6
+    plain = propagate_scribbles(graph, scribble, k, log_proba=unsure)
+    assert (plain[gt == limb] == limb).mean() < 0.4  # the walk runs to the body's stroke: body
+    reach = propagate_scribbles(graph, scribble, k, log_proba=unsure, params=PropagateParams(walk_reach=0.5))
+    assert (reach[gt == limb] == limb).mean() > 0.97
+    assert (reach == gt).mean() > 0.95
+    sel = scribble >= 0
+    np.testing.assert_array_equal(reach[sel], scribble[sel])
+
+
+def test_walk_with_a_prior_is_a_distribution_that_meets_the_strokes_first(one_limb):
+    graph, gt, scribble = one_limb
+    k = len(LABELS) + 1  # one label never scribbled, which the prior still names
+    prior = np.full((graph.num_faces, k), 1.0 / k)
+    walk = RandomWalk(graph, scribble, k, crease=0.03, reach=0.5)
+    P = walk.probabilities(prior)
+    np.testing.assert_allclose(P.sum(axis=1), 1.0, atol=1e-6)
+    assert np.all(P[:, -1] == 0)  # the prior renormalized over the painted labels
+    sel = scribble >= 0
+    assert np.all(P[sel, scribble[sel]] == 1.0)
+    # a uniform prior pulls every face toward uniform; the nearer the reach, the more
+    plain = random_walk_probabilities(graph, scribble, k, crease=0.03)
+    near = RandomWalk(graph, scribble, k, crease=0.03, reach=0.05).probabilities(prior)
+    assert np.abs(near - 1 / 3)[~sel, :3].mean() < np.abs(P - 1 / 3)[~sel, :3].mean() < np.abs(plain - 1 / 3)[~sel, :3].mean()
+    # no reach: the plain walk, whatever the prior
+    np.testing.assert_allclose(RandomWalk(graph, scribble, k, crease=0.03).probabilities(prior), plain)
+    with pytest.raises(ValueError, match="prior"):
+        walk.probabilities()
+    clusters = graph_clusters(graph.crease_matrix, CLUSTER_SIZE)
+    Q = RandomWalk(graph, scribble, k, crease=0.03, clusters=clusters, reach=0.5).probabilities(prior)
+    np.testing.assert_allclose(Q.sum(axis=1), 1.0, atol=1e-6)
+    assert np.abs(P - Q).max(axis=1).mean() < 0.05
