@@ -10,7 +10,8 @@ Two variants (:attr:`SegmentParams.method`):
 ``"face"`` (default)
     On the faces (:class:`~scribbleseg_core.engine.propagate.FaceEnergy`): the scribbles
     are hard, the scribble term elsewhere is the crease-aware distance to each label's
-    strokes (and, beside the network, the random walk from them), the smoothness is a Potts
+    strokes (and, beside the network, the random walk from them, which may stop on the way
+    and take the model's label there: :class:`~scribbleseg_core.engine.propagate.RandomWalk`), the smoothness is a Potts
     term cheap across concave creases. The initial labels are the cut without the network
     (the scribble propagation). Shapes without scribbles are segmented at every cut by that
     round's model, as new shapes are (:func:`~scribbleseg_core.engine.predict.predict_shape`);
@@ -21,7 +22,7 @@ Two variants (:attr:`SegmentParams.method`):
     shapes only.
 
 Additions to the paper in ``"face"``, each measured on its own in ``docs/benchmarks.md``:
-cross-fitted network term (:class:`_Networks`), the random-walker term, the SDF contrast and the
+cross-fitted network term (:class:`_Networks`), the random-walker term with the model as its prior, the SDF contrast and the
 convex-crease weight of the smoothness (:class:`~scribbleseg_core.engine.propagate.PropagateParams`),
 the multi-scale context and local shape among the network's inputs (:attr:`SegmentParams.context_scales`,
 :attr:`SegmentParams.local_shape`), the label-context stage of the learner

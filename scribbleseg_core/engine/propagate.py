@@ -4,7 +4,7 @@ Each face prefers the label of its nearest scribble in the crease-aware dual met
 (:meth:`DualGraph.crease_distance`), scribbled faces are hard constraints, and the Potts
 smoothness is cheap across concave creases and dear elsewhere, so labels stop at creases.
 Optional network log-probabilities join the unary term, and with them the random-walker
-probabilities from the strokes (:func:`random_walk_probabilities`). Without the network it
+probabilities from the strokes, with the network as their prior (:class:`RandomWalk`). Without the network it
 needs no features, so it is fast enough for the app's live preview after every stroke; the
 engine uses it for the final labels of scribbled shapes.
 """
@@ -37,7 +37,7 @@ class PropagateParams:
     − walk · log P_rw(l | f)``, where ``d_l`` is the crease-aware geodesic distance to the
     nearest scribble of label l, ``d̄`` the median distance of a face to its nearest
     scribble, P the network's probabilities and ``P_rw`` the random-walker probabilities
-    (:func:`random_walk_probabilities`); on every shared edge
+    (:class:`RandomWalk`, with the model's probabilities as its prior); on every shared edge
     ``smoothness · (ℓ / mean ℓ) · exp(−concavity / crease) · c``, with c the SDF contrast
     factor (:func:`contrast_factor`). The defaults were chosen on the 12 PSB categories
     (``docs/benchmarks.md``).
@@ -76,8 +76,9 @@ class PropagateParams:
     walk_reach : float
         With the network, the random walk may stop before it meets a stroke and take the
         network's label where it stops, after crossing about this fraction of the shape's
-        width (:class:`RandomWalk`): the parts no stroke of their label reaches follow the
-        network. 0: the walk always runs to a stroke. Default 0.
+        width (:class:`RandomWalk`): a part that no stroke of its
+        label reaches (three legs of four when one was painted) follows the network rather
+        than the nearest stroke. 0: the walk always runs to a stroke. Default 0.5.
     """
 
     distance: float = 0.1
@@ -89,7 +90,7 @@ class PropagateParams:
     walk: float = 1.0
     convex: float = 0.02
     boundary: float = 16.0
-    walk_reach: float = 0.0
+    walk_reach: float = 0.5
 
 
 def scribble_distances(graph: DualGraph, scribble: np.ndarray, k: int,
@@ -370,15 +371,16 @@ class RandomWalk:
     """The random walker from the strokes of one shape, factorized once, solved for any prior.
 
     Without a prior (``reach = 0``) a walk from a free face wanders until it meets a stroke and
-    takes its label (Grady 2006). With a prior it also stops at every step, with probability
-    ``γ / (1 + γ)``, and takes a label drawn from the prior at the face where it stops (random
-    walks with prior models: Grady 2005): ``(L_uu + γ D_u) X_u = −L_us X_s + γ D_u Λ_u``, D the
-    graph's degrees. A walk takes about ``1 / γ`` steps before it stops, and spreads over about
-    the square root of that many faces, so ``γ = 1 / (reach² · n)`` for n nodes: it stops after
-    crossing about `reach` of a shape's width of faces. Where the strokes are near or reachable
-    the walk still meets them; in a part that no stroke of its label reaches, behind a crease
-    that the walk rarely crosses (the three legs left unpainted when one was), the prior
-    decides. ``L_uu + γ D_u`` does not depend on the prior: it is factorized once.
+    takes its label (Grady 2006). With a prior Λ (label probabilities per face, renormalized
+    over the labels painted on the shape) it may also stop at every step, with probability
+    ``γ / (1 + γ)``, and take a label drawn from the prior where it stops (random walks with
+    prior models, Grady 2005): ``(L_uu + γ D_u) X_u = −L_us X_s + γ D_u Λ_u``, D the graph's
+    degrees. A walk takes about ``1 / γ`` steps before it stops, and spreads over about the
+    square root of that many faces, so ``γ = 1 / (reach² · n)`` for n nodes: it stops after
+    crossing about `reach` of a shape's width. Near a stroke the walk still meets it; in a
+    part that no stroke of its label reaches (three legs of four when one was painted: from
+    them the walk would reach the body's stroke first), the prior decides. ``L_uu + γ D_u``
+    does not depend on the prior: it is factorized once.
 
     Parameters are those of :func:`random_walk_probabilities`.
     """
@@ -411,9 +413,8 @@ class RandomWalk:
             return
         Lu = L[self.u]
         self.rhs = -(Lu[:, s] @ self.base[np.ix_(s, self.present)])
-        self.Luu = Lu[:, self.u].tocsc()
         self.stop = self.gamma * L.diagonal()[self.u]
-        self._solve = sla.splu(self.Luu).solve if self.gamma == 0 else None
+        self._solve = sla.splu((Lu[:, self.u] + sp.diags(self.stop)).tocsc()).solve
 
     def probabilities(self, prior: np.ndarray | None = None) -> np.ndarray:
         """(m, k) float64 label probabilities of the walk; `prior` (m, k) rows of label
@@ -421,7 +422,7 @@ class RandomWalk:
         walk has a reach."""
         P = self.base.copy()
         if self.u.size and self.present.size:
-            rhs, solve = self.rhs, self._solve
+            rhs = self.rhs
             if self.gamma > 0:
                 if prior is None:
                     raise ValueError("a random walk with a reach needs a prior")
@@ -433,12 +434,8 @@ class RandomWalk:
                 lam = prior[np.ix_(self.u, self.present)]
                 mass = lam.sum(axis=1, keepdims=True)
                 lam = np.where(mass > 0, lam / np.where(mass > 0, mass, 1.0), 1.0 / len(self.present))
-                # the walk stops where the prior is sure: a stop at a uniform prior says nothing
-                sure = 1.0 + (lam * np.log(np.maximum(lam, 1e-300))).sum(axis=1) / max(np.log(len(self.present)), 1e-12)
-                stop = self.stop * np.clip(sure, 0.0, 1.0)
-                rhs = rhs + stop[:, None] * lam
-                solve = sla.splu((self.Luu + sp.diags(stop)).tocsc()).solve
-            P[np.ix_(self.u, self.present)] = solve(np.ascontiguousarray(rhs))
+                rhs = rhs + self.stop[:, None] * lam
+            P[np.ix_(self.u, self.present)] = self._solve(np.ascontiguousarray(rhs))
         P = np.clip(P, 0.0, 1.0)
         return P if self.coarse is None else P[self.coarse]
 

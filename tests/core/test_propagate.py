@@ -11,8 +11,8 @@ from scribbleseg_core.engine.graphcut import graph_clusters
 from scribbleseg_core.engine.propagate import (
     CLUSTER_SIZE,
     PropagateParams,
-    propagate_scribbles,
     RandomWalk,
+    propagate_scribbles,
     random_walk_probabilities,
     scribble_distances,
 )
@@ -315,30 +315,36 @@ def test_walk_with_the_network_as_prior_finds_the_limbs_left_unpainted(one_limb)
     graph, gt, scribble = one_limb
     k, limb = len(LABELS), LABELS.index("limb")
     unsure = np.log(np.where(np.arange(k)[None, :] == gt[:, None], 0.6, 0.2))  # a network right at 0.6
-    plain = propagate_scribbles(graph, scribble, k, log_proba=unsure)
+    plain = propagate_scribbles(graph, scribble, k, log_proba=unsure, params=PropagateParams(walk_reach=0.0))
     assert (plain[gt == limb] == limb).mean() < 0.4  # the walk runs to the body's stroke: body
-    reach = propagate_scribbles(graph, scribble, k, log_proba=unsure, params=PropagateParams(walk_reach=0.5))
+    reach = propagate_scribbles(graph, scribble, k, log_proba=unsure)  # the default reach
     assert (reach[gt == limb] == limb).mean() > 0.97
     assert (reach == gt).mean() > 0.95
     sel = scribble >= 0
     np.testing.assert_array_equal(reach[sel], scribble[sel])
 
 
-def test_walk_with_a_prior_is_a_distribution_that_meets_the_strokes_first(one_limb):
+def test_walk_with_a_prior_is_a_distribution_that_meets_near_strokes_first(one_limb):
     graph, gt, scribble = one_limb
-    k = len(LABELS) + 1  # one label never scribbled, which the prior still names
-    prior = np.full((graph.num_faces, k), 1.0 / k)
+    k, head = len(LABELS) + 1, LABELS.index("head")  # one label never scribbled, which the prior still names
+    prior = np.full((graph.num_faces, k), 0.1 / (k - 1))
+    prior[:, head] = 0.9  # the head everywhere
     walk = RandomWalk(graph, scribble, k, crease=0.03, reach=0.5)
     P = walk.probabilities(prior)
     np.testing.assert_allclose(P.sum(axis=1), 1.0, atol=1e-6)
     assert np.all(P[:, -1] == 0)  # the prior renormalized over the painted labels
     sel = scribble >= 0
     assert np.all(P[sel, scribble[sel]] == 1.0)
-    # a uniform prior pulls every face toward uniform; the nearer the reach, the more
+    # the prior pulls the free faces toward the head; the shorter the reach, the more
     plain = random_walk_probabilities(graph, scribble, k, crease=0.03)
-    near = RandomWalk(graph, scribble, k, crease=0.03, reach=0.05).probabilities(prior)
-    assert np.abs(near - 1 / 3)[~sel, :3].mean() < np.abs(P - 1 / 3)[~sel, :3].mean() < np.abs(plain - 1 / 3)[~sel, :3].mean()
-    # no reach: the plain walk, whatever the prior
+    near = RandomWalk(graph, scribble, k, crease=0.03, reach=0.1).probabilities(prior)
+    assert near[~sel, head].mean() > P[~sel, head].mean() > plain[~sel, head].mean() + 0.05
+    # beside a stroke the walk meets it before it stops
+    body = LABELS.index("body")
+    beside = np.unique(graph.pairs[np.isin(graph.pairs, np.flatnonzero(scribble == body)).any(axis=1)])
+    beside = beside[scribble[beside] < 0]
+    assert P[beside, body].min() > 0.5
+    # no reach: the plain walk, whatever the prior; the same solve on clusters
     np.testing.assert_allclose(RandomWalk(graph, scribble, k, crease=0.03).probabilities(prior), plain)
     with pytest.raises(ValueError, match="prior"):
         walk.probabilities()
