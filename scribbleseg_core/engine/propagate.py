@@ -76,9 +76,9 @@ class PropagateParams:
     walk_reach : float
         With the network, the random walk may stop before it meets a stroke and take the
         network's label where it stops, after crossing about this fraction of the shape's
-        width (:class:`RandomWalk`): a part that no stroke of its
-        label reaches (three legs of four when one was painted) follows the network rather
-        than the nearest stroke. 0: the walk always runs to a stroke. Default 0.5.
+        width (:class:`RandomWalk`): a part that no stroke of its label reaches (three legs
+        of four when one was painted) follows the network rather than the nearest stroke.
+        0: the walk always runs to a stroke. Default 0.5.
     """
 
     distance: float = 0.1
