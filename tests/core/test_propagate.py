@@ -21,9 +21,14 @@ from tests.core.planted import LABELS, creature, stroke_faces
 
 
 @pytest.fixture(scope="module")
-def planted():
+def creature_graph():
     mesh, gt = creature(1.6, 0.9, seed=0)
-    graph = dual_graph(mesh.normalized(), mesh.F)
+    return mesh, dual_graph(mesh.normalized(), mesh.F), gt
+
+
+@pytest.fixture(scope="module")
+def planted(creature_graph):
+    mesh, graph, gt = creature_graph
     scribble = np.full(len(gt), -1)
     for lab in range(len(LABELS)):
         scribble[stroke_faces(mesh, gt, lab)] = lab
@@ -300,10 +305,9 @@ def test_multilevel_cut_brings_the_parts_back_like_the_full_cut(planted):
 
 
 @pytest.fixture(scope="module")
-def one_limb():
+def one_limb(creature_graph):
     """The planted creature painted as a user might: body, head and one of the four limbs."""
-    mesh, gt = creature(1.6, 0.9, seed=0)
-    graph = dual_graph(mesh.normalized(), mesh.F)
+    mesh, graph, gt = creature_graph
     scribble = np.full(len(gt), -1)
     for lab in range(len(LABELS)):
         faces = stroke_faces(mesh, gt, lab)
