@@ -342,7 +342,7 @@ class MainWindow(QMainWindow):
         mesh = self.model.shapes[index].mesh()
         tri = mesh.V_file[mesh.F_file[s.face]]
         self.viewport.focus(tri.mean(axis=0), np.cross(tri[1] - tri[0], tri[2] - tri[0]))
-        self.statusBar().showMessage(f"{mesh.name}: paint in the highlighted region ({len(s.faces)} unsure faces)")
+        self.statusBar().showMessage(f"{mesh.name}: paint in the hatched region ({len(s.faces)} unsure faces)")
 
     def _on_suggestion(self) -> None:
         s = self.model.suggestion

@@ -17,8 +17,14 @@ SHOW_MODES = ("Labels and scribbles", "Scribbles only", "Result only", "Confiden
               "Feature: AGD", "Feature: SDF", "Feature: Gaussian curvature", "Feature: SI-HKS (band 1)")
 #: The bare surface: what a hidden label, or a face without labels, shows.
 SURFACE = np.array([0.78, 0.78, 0.78])
-#: Tint of the region a fill click would paint, and of the suggested region ("paint here next").
-FILL_TINT, SUGGESTION_TINT = np.array([1.0, 1.0, 1.0]), np.array([1.0, 0.0, 0.85])
+#: Tint of the region a fill click would paint.
+FILL_TINT = np.array([1.0, 1.0, 1.0])
+#: The suggested region ("paint here next") is hatched: every other band of faces, across the
+#: shape, darkened to this fraction of its colour, so that it reads as a mark over the labels
+#: (which show between the stripes) and never as a label of its own.
+SUGGESTION_SHADE = 0.3
+#: Width of a hatching band, as a fraction of the shape's bounding-box diagonal.
+SUGGESTION_BAND = 0.025
 FEATURE_COLUMN = {"Feature: AGD": 0, "Feature: SDF": 1, "Feature: Gaussian curvature": 2, "Feature: SI-HKS (band 1)": 3}
 
 
@@ -39,6 +45,16 @@ def value_colors(values: np.ndarray, span: tuple[float, float] | None = None) ->
     return anchors[i] * (1 - f) + anchors[i + 1] * f
 
 
+def hatched(mesh, faces: np.ndarray) -> np.ndarray:
+    """Which of the file faces `faces` (k,) of `mesh` lie in the dark bands of a hatching:
+    bands of width ``SUGGESTION_BAND`` × the bounding-box diagonal across the shape, along
+    (1, 1, 1); (k,) bool."""
+    V, F = mesh.V_file, mesh.F_file
+    width = SUGGESTION_BAND * max(float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), 1e-12)
+    along = V[F[np.asarray(faces, dtype=np.int64)]].mean(axis=1) @ (np.ones(3) / np.sqrt(3.0))
+    return np.floor(along / width).astype(np.int64) % 2 == 0
+
+
 class ViewController:
     """Keeps the viewport showing the model's current shape in the chosen mode.
 
@@ -51,9 +67,9 @@ class ViewController:
 
     Labels can be hidden or faded (:meth:`set_label_opacity`, :attr:`only_current`): a face
     shows its label's colour blended over the bare surface by the label's opacity. The region a
-    fill would paint (:meth:`set_highlight`) and the suggested region (the model's
+    fill would paint (:meth:`set_highlight`) is tinted on top; the suggested region (the model's
     :attr:`~scribbleseg_app.model.CollectionModel.suggestion`; not over the confidence, which
-    shows it already) are tinted on top.
+    shows it already) is hatched (:func:`hatched`).
 
     Parameters
     ----------
@@ -144,7 +160,8 @@ class ViewController:
             colors = self._label_colors(index)
         suggestion = m.suggestion
         if suggestion is not None and suggestion.index == index and self.mode != "Confidence":
-            colors[suggestion.faces] = 0.45 * colors[suggestion.faces] + 0.55 * SUGGESTION_TINT
+            dark = suggestion.faces[hatched(entry.mesh(), suggestion.faces)]
+            colors[dark] = SUGGESTION_SHADE * colors[dark]
         if self.highlight is not None and self.highlight[0] == index:
             faces = self.highlight[1]
             colors[faces] = 0.4 * colors[faces] + 0.6 * FILL_TINT
@@ -228,6 +245,9 @@ class ViewController:
         confidence = m.shapes[i].confidence
         if confidence is not None and face < len(confidence):
             text += f", confidence {confidence[face]:.2f}"
+        suggestion = m.suggestion
+        if suggestion is not None and suggestion.index == i and np.isin(face, suggestion.faces):
+            text += " (hatched: paint here next)"
         return text
 
     # ------------------------------------------------------------------ the shown shape

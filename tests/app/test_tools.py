@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scribbleseg_app.controllers.jobs import QueueDispatcher
 from scribbleseg_app.controllers.tools import ToolsController
-from scribbleseg_app.controllers.view import FILL_TINT, SUGGESTION_TINT, SURFACE, ViewController
+from scribbleseg_app.controllers.view import FILL_TINT, SUGGESTION_SHADE, SURFACE, ViewController, hatched
 from scribbleseg_app.keys import KEYS, sheet
 from scribbleseg_app.model import CollectionModel, Suggestion
 
@@ -157,12 +157,18 @@ def test_the_view_fades_hides_tints_and_shows_the_confidence(creatures):
     model.set_confidence(0, conf, 0.5)
     assert not np.allclose(viewport.colors, base) and np.allclose(viewport.colors[0], [0.267, 0.005, 0.329])
     before = viewport.colors.copy()
-    model.set_suggestion(Suggestion(0, np.array([5, 6]), 5))
+    region = np.arange(5, len(truth[0]))
+    model.set_suggestion(Suggestion(0, region, 5))
     np.testing.assert_allclose(viewport.colors, before)  # the confidence shows it already
     view.set_mode("Labels and scribbles")
-    np.testing.assert_allclose(viewport.colors[5:7], 0.45 * base[5:7] + 0.55 * SUGGESTION_TINT)
-    np.testing.assert_allclose(viewport.colors[7:], base[7:])
-    assert "confidence 0.00" in view.hover_text(0)
+    # hatched: bands of the region darkened, the labels between them, nothing outside it
+    dark = region[hatched(model.shapes[0].mesh(), region)]
+    light = np.setdiff1d(np.arange(len(truth[0])), dark)
+    assert 0.2 * len(region) < len(dark) < 0.8 * len(region)
+    np.testing.assert_allclose(viewport.colors[dark], SUGGESTION_SHADE * base[dark])
+    np.testing.assert_allclose(viewport.colors[light], base[light])
+    assert "confidence 0.00" in view.hover_text(0) and "paint here next" not in view.hover_text(0)
+    assert "paint here next" in view.hover_text(5)
     model.paint_faces(1, [0], 0)
     assert model.suggestion is not None  # an edit elsewhere leaves it
     model.paint_faces(0, [5], 0)
