@@ -23,7 +23,8 @@ FILL_TINT = np.array([1.0, 1.0, 1.0])
 #: shape, darkened to this fraction of its colour, so that it reads as a mark over the labels
 #: (which show between the stripes) and never as a label of its own.
 SUGGESTION_SHADE = 0.3
-#: Width of a hatching band, as a fraction of the shape's bounding-box diagonal.
+#: Width of a hatching band, as a fraction of the shape's bounding-box diagonal (narrower on a
+#: small region, so that it shows at least four bands).
 SUGGESTION_BAND = 0.025
 FEATURE_COLUMN = {"Feature: AGD": 0, "Feature: SDF": 1, "Feature: Gaussian curvature": 2, "Feature: SI-HKS (band 1)": 3}
 
@@ -46,13 +47,17 @@ def value_colors(values: np.ndarray, span: tuple[float, float] | None = None) ->
 
 
 def hatched(mesh, faces: np.ndarray) -> np.ndarray:
-    """Which of the file faces `faces` (k,) of `mesh` lie in the dark bands of a hatching:
-    bands of width ``SUGGESTION_BAND`` × the bounding-box diagonal across the shape, along
-    (1, 1, 1); (k,) bool."""
+    """Which of the file faces `faces` (k,) of `mesh` lie in the dark bands of a hatching of
+    them: bands along (1, 1, 1), the first dark, of width ``SUGGESTION_BAND`` × the shape's
+    bounding-box diagonal, or a quarter of the faces' extent along it where that is narrower
+    (a small region still shows bands, and at least one dark face); (k,) bool."""
     V, F = mesh.V_file, mesh.F_file
-    width = SUGGESTION_BAND * max(float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), 1e-12)
     along = V[F[np.asarray(faces, dtype=np.int64)]].mean(axis=1) @ (np.ones(3) / np.sqrt(3.0))
-    return np.floor(along / width).astype(np.int64) % 2 == 0
+    if along.size == 0:
+        return np.zeros(0, bool)
+    along = along - along.min()
+    width = min(SUGGESTION_BAND * float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), along.max() / 4)
+    return np.floor(along / max(width, 1e-12)).astype(np.int64) % 2 == 0
 
 
 class ViewController:

@@ -167,6 +167,8 @@ def test_the_view_fades_hides_tints_and_shows_the_confidence(creatures):
     assert 0.2 * len(region) < len(dark) < 0.8 * len(region)
     np.testing.assert_allclose(viewport.colors[dark], SUGGESTION_SHADE * base[dark])
     np.testing.assert_allclose(viewport.colors[light], base[light])
+    for small in ([5], [5, 6, 7]):  # a small region shows too
+        assert hatched(model.shapes[0].mesh(), np.array(small)).any()
     assert "confidence 0.00" in view.hover_text(0) and "paint here next" not in view.hover_text(0)
     assert "paint here next" in view.hover_text(5)
     model.paint_faces(1, [0], 0)
