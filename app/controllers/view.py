@@ -52,7 +52,7 @@ def hatched(mesh, faces: np.ndarray) -> np.ndarray:
     bounding-box diagonal, or a quarter of the faces' extent along it where that is narrower
     (a small region still shows bands, and at least one dark face); (k,) bool."""
     V, F = mesh.V_file, mesh.F_file
-    along = V[F[np.asarray(faces, dtype=np.int64)]].mean(axis=1).sum(axis=1) / np.sqrt(3.0)  # no BLAS call (STACK.md)
+    along = V[F[np.asarray(faces, dtype=np.int64)]].mean(axis=1).sum(axis=1) / np.sqrt(3.0)  # not `@`: BLAS would alter the thread state (tests/test_assets.py)
     if along.size == 0:
         return np.zeros(0, bool)
     along = along - along.min()
