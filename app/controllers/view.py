@@ -12,6 +12,8 @@ import numpy as np
 from scribbleseg_app.controllers.jobs import Dispatcher, Job
 from scribbleseg_app.events import Event
 
+from scribbleseg_core.geometry.measures import face_centroids
+
 #: What the surface shows ("Show" menu); features are the columns of ``face_features``.
 SHOW_MODES = ("Labels and scribbles", "Scribbles only", "Result only", "Confidence",
               "Feature: AGD", "Feature: SDF", "Feature: Gaussian curvature", "Feature: SI-HKS (band 1)")
@@ -52,7 +54,9 @@ def hatched(mesh, faces: np.ndarray) -> np.ndarray:
     bounding-box diagonal, or a quarter of the faces' extent along it where that is narrower
     (a small region still shows bands, and at least one dark face); (k,) bool."""
     V, F = mesh.V_file, mesh.F_file
-    along = V[F[np.asarray(faces, dtype=np.int64)]].mean(axis=1).sum(axis=1) / np.sqrt(3.0)  # not `@`: BLAS would alter the thread state (tests/test_assets.py)
+    # A sum, not `@`: a BLAS call here changed the thread state under which the asset
+    # generator's remeshing later ran in the same test process (tests/test_assets.py).
+    along = face_centroids(V, F[np.asarray(faces, dtype=np.int64)]).sum(axis=1) / np.sqrt(3.0)
     if along.size == 0:
         return np.zeros(0, bool)
     along = along - along.min()
@@ -100,6 +104,7 @@ class ViewController:
         self._label_count = len(model.label_set)
         self.only_current = False
         self.highlight: tuple[int, np.ndarray] | None = None  # (shape, file faces) a fill would paint
+        self._hatch: tuple[object, np.ndarray] | None = None  # (suggestion, its dark file faces)
         model.collection_changed.connect(self._on_collection_changed)
         model.confidence_changed.connect(self.refresh)
         model.suggestion_changed.connect(lambda: self.refresh(model.current))
@@ -165,7 +170,9 @@ class ViewController:
             colors = self._label_colors(index)
         suggestion = m.suggestion
         if suggestion is not None and suggestion.index == index and self.mode != "Confidence":
-            dark = suggestion.faces[hatched(entry.mesh(), suggestion.faces)]
+            if self._hatch is None or self._hatch[0] is not suggestion:
+                self._hatch = suggestion, suggestion.faces[hatched(entry.mesh(), suggestion.faces)]
+            dark = self._hatch[1]
             colors[dark] = SUGGESTION_SHADE * colors[dark]
         if self.highlight is not None and self.highlight[0] == index:
             faces = self.highlight[1]
