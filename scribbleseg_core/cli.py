@@ -249,7 +249,8 @@ def _bench_params(args):
                    propagation=replace(base.propagation, **given(contrast=args.contrast, walk=args.walk,
                                                                  walk_reach=args.walk_reach,
                                                                  convex=args.convex, boundary=args.boundary)),
-                   **given(local_shape=args.local_shape, label_context=args.label_context, rounds=args.rounds))
+                   **given(local_shape=args.local_shape, label_context=args.label_context, rounds=args.rounds,
+                           decided=args.decided))
 
 
 def _cmd_bench_merge(args) -> int:
@@ -370,6 +371,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="random-walk term of the face energy (default PropagateParams.walk; 0 = off)")
     p.add_argument("--walk-reach", type=_non_negative, default=None,
                    help="how far the walk goes before it stops at the network's label (PropagateParams.walk_reach)")
+    p.add_argument("--decided", type=_fraction, default=None,
+                   help="the first round's networks learn the faces the walk from the strokes reaches with at "
+                        "least this chance, and a tenth of the others (default SegmentParams.decided; 0 = every face)")
     p.add_argument("--convex", type=_fraction, default=None,
                    help="weight of convex creases against concave ones in the face energy's smoothness and walk "
                         "(default PropagateParams.convex; 0.1 = the dual graph's crease metric)")

@@ -22,6 +22,7 @@ Two variants (:attr:`SegmentParams.method`):
     shapes only.
 
 Additions to the paper in ``"face"``, each measured on its own in ``docs/benchmarks.md``:
+a first round that learns mostly the faces the strokes decide (:attr:`SegmentParams.decided`),
 cross-fitted network term (:class:`_Networks`), the random-walker term with the model as its prior, the SDF contrast and the
 convex-crease weight of the smoothness (:class:`~scribbleseg_core.engine.propagate.PropagateParams`),
 the multi-scale context and local shape among the network's inputs (:attr:`SegmentParams.context_scales`,
@@ -68,6 +69,15 @@ Phase = Literal["init", "train", "graphcut", "done"]
 TOLERANCE = 1e-3
 
 
+#: The share of the faces the strokes do not decide that the first round's networks learn
+#: (:attr:`SegmentParams.decided`): where the propagation's guess is a part no stroke reached
+#: (three legs of four labeled body) it teaches the networks too little to outweigh the
+#: painted leg; where the guess is right but the decided faces are not a fair sample of their
+#: part (only the middle of a large flat part lies near its stroke), the networks still see
+#: the rest of it.
+UNDECIDED_SHARE = 0.1
+
+
 @dataclass(frozen=True)
 class SegmentParams:
     """Parameters of the whole pipeline.
@@ -104,6 +114,18 @@ class SegmentParams:
         so the term is not only the echo of them. The model for new shapes is the network
         trained on all shapes. 0 turns it off (then, without the label-context stage, each
         round trains one first-stage network instead of one plus one a fold). Default 0.7.
+    decided : float
+        ``"face"`` only: the first round's networks learn the faces of each scribbled shape
+        that the strokes decide, and only a share :data:`UNDECIDED_SHARE` of the others,
+        drawn at random (the same draw for every network seed). A face is decided when the
+        random walk from it meets a stroke before it stops with at least this chance
+        (:meth:`RandomWalk.reached
+        <scribbleseg_core.engine.propagate.RandomWalk.reached>`, with the reach
+        ``propagation.walk_reach``). Elsewhere the initial labels are the propagation's guess
+        (the nearest stroke's label: body for the three legs of four left unpainted), which
+        the networks would learn; from the second round they learn every face, labeled by
+        the cut that their model joined. 0, or a walk without a reach: every face from the
+        first round. Default 0.5.
     network : NetworkParams
         The classifier and its training.
     propagation : PropagateParams
@@ -117,12 +139,15 @@ class SegmentParams:
     local_shape: bool = True
     label_context: bool = True
     cross_fit: float = 0.7
+    decided: float = 0.5
     network: NetworkParams = field(default_factory=NetworkParams)
     propagation: PropagateParams = field(default_factory=PropagateParams)
 
     def __post_init__(self):
         if not 0 <= self.cross_fit < 1:
             raise ValueError(f"cross_fit must lie in [0, 1); got {self.cross_fit}")
+        if not 0 <= self.decided <= 1:
+            raise ValueError(f"decided must lie in [0, 1]; got {self.decided}")
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {', '.join(map(repr, METHODS))}; got {self.method!r}")
         if self.rounds < 1:
@@ -310,7 +335,8 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         t = t if it == 1 else time.perf_counter()
         previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
-        net.fit(inputs, labels)  # the networks learn from the shapes `taught` only
+        # the networks learn from the shapes `taught` only; in round 1 mostly from the faces the strokes decide
+        net.fit(inputs, labels, problem.decided(labels) if it == 1 else labels)
         new_logp, new_prior = net.log_proba(inputs)
         new_model = net.model(problem)
         problem.use(new_model)
@@ -493,9 +519,10 @@ class _Networks:
         taught = (self.edges_of(i, lab) for i, lab in enumerate(labels) if lab is not None and self.mixed[i])
         self.boundary = BoundaryClassifier.fit(taught, seed=self.params.seed, threads=self.params.threads)
 
-    def fit(self, inputs, labels) -> None:
+    def fit(self, inputs, labels, learn=None) -> None:
         """Train on every scribbled shape with labels and inputs, warm when trained before; the
-        boundary classifier on the same labels, afresh, when the cuts need it.
+        boundary classifier on the same labels, afresh, when the cuts need it. `learn`: the
+        labels the networks learn (-1 on faces they skip), default `labels`.
 
         With two or more torch threads to use and fold networks to train, the networks train
         in two lanes at once, one torch thread each: the even folds' networks, stage 2's
@@ -507,6 +534,7 @@ class _Networks:
                   if x is not None and lab is not None and self.mixed[i]]
         if self.cuts_need_boundary:
             self.fit_boundary(labels)
+        labels = labels if learn is None else learn
 
         def data(which):
             return [inputs[i] for i in which], [labels[i] for i in which]
@@ -629,6 +657,17 @@ class _FaceProblem:
     def initial_labels(self) -> list[np.ndarray | None]:
         return [e.cut() if e.is_scribbled else None for e in self.energies]
 
+    def decided(self, labels) -> list[np.ndarray | None]:
+        """`labels` with -1 on the faces of scribbled shapes that the strokes do not decide,
+        but for a share :data:`UNDECIDED_SHARE` of them (:attr:`SegmentParams.decided`)."""
+        threshold = self.params.decided
+        if threshold <= 0:
+            return labels
+        rng = np.random.default_rng(0)  # the same draw for every network seed
+        return [lab if lab is None or not e.is_scribbled else
+                np.where((e.walk_reached() >= threshold) | (rng.random(len(lab)) < UNDECIDED_SHARE), lab, -1)
+                for lab, e in zip(labels, self.energies)]
+
     def use(self, model: TrainedModel) -> None:
         """Give the shapes without scribbles the smoothness of `model`'s boundary term (the
         crease rule without one)."""
@@ -689,6 +728,10 @@ class _PatchProblem:
         self.y = [None if U is None else alpha_expansion(U, s.patch_pairs, w)
                   for U, s, w in zip(self.U_scr, self.shapes, self.W)]
         return self._faces()
+
+    def decided(self, labels) -> list[np.ndarray | None]:
+        """`labels` as they are: the paper trains on every face of the initial cut."""
+        return labels
 
     def cut(self, labels, logp, prior=None) -> list[np.ndarray | None]:
         self.y = [None if U is None else alpha_expansion(U + network_unary(P, lp), s.patch_pairs, w, init=y)

@@ -208,20 +208,29 @@ class FaceEnergy:
     def is_scribbled(self) -> bool:
         return self.strokes.size > 0
 
+    def _random_walk(self) -> RandomWalk:
+        """This shape's walk, factorized on first use."""
+        if self._walker is None:
+            self._walker = RandomWalk(self.graph, self.scribble, self.k, self.params.crease, self.params.convex,
+                                      self.clusters, self.params.walk_reach)
+        return self._walker
+
     def walk(self, prior: np.ndarray | None = None) -> np.ndarray:
         """(m, k) ``−log`` of the random-walker probabilities from the strokes, with the
         probabilities of the log-probabilities `prior` (m, k) as its prior when
         ``params.walk_reach > 0`` (:class:`RandomWalk`; factorized once, the last prior's
         result kept)."""
-        if self._walker is None:
-            self._walker = RandomWalk(self.graph, self.scribble, self.k, self.params.crease, self.params.convex,
-                                      self.clusters, self.params.walk_reach)
+        walker = self._random_walk()
         with_prior = self.params.walk_reach > 0
         key = prior if with_prior else None
         if self._walk is None or self._walk[0] is not key:
-            P = self._walker.probabilities(np.exp(np.asarray(prior, dtype=np.float64)) if with_prior else None)
+            P = walker.probabilities(np.exp(np.asarray(prior, dtype=np.float64)) if with_prior else None)
             self._walk = (key, -np.log(np.maximum(P, 1e-6)))
         return self._walk[1]
+
+    def walk_reached(self) -> np.ndarray:
+        """(m,) :meth:`RandomWalk.reached` of this shape's walk (``params.walk_reach``)."""
+        return self._random_walk().reached()
 
     def unary(self, log_proba: np.ndarray | None = None, prior: np.ndarray | None = None) -> np.ndarray:
         """(m, k) unary costs, with the network's log-probabilities when given; `prior`
@@ -415,6 +424,16 @@ class RandomWalk:
         self.rhs = -(Lu[:, s] @ self.base[np.ix_(s, self.present)])
         self.stop = self.gamma * L.diagonal()[self.u]
         self._solve = sla.splu((Lu[:, self.u] + sp.diags(self.stop)).tocsc()).solve
+
+    def reached(self) -> np.ndarray:
+        """(m,) float64: the chance that the walk from each face meets a stroke before it stops
+        (1 on the strokes; 1 everywhere a stroke's component reaches without a reach; 0 in
+        components without strokes). Where it is low, no stroke decides the face's label."""
+        out = self.base.sum(axis=1)
+        if self.u.size and self.present.size:
+            out[self.u] = self._solve(np.ascontiguousarray(self.rhs.sum(axis=1)))
+        out = np.clip(out, 0.0, 1.0)
+        return out if self.coarse is None else out[self.coarse]
 
     def probabilities(self, prior: np.ndarray | None = None) -> np.ndarray:
         """(m, k) float64 label probabilities of the walk; `prior` (m, k) rows of label

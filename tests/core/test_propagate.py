@@ -356,3 +356,35 @@ def test_walk_with_a_prior_is_a_distribution_that_meets_near_strokes_first(one_l
     Q = RandomWalk(graph, scribble, k, crease=0.03, clusters=clusters, reach=0.5).probabilities(prior)
     np.testing.assert_allclose(Q.sum(axis=1), 1.0, atol=1e-6)
     assert np.abs(P - Q).max(axis=1).mean() < 0.05
+
+
+def test_walk_reached_is_high_near_strokes_and_nil_on_limbs_no_stroke_reaches(one_limb):
+    graph, gt, scribble = one_limb
+    k, limb = len(LABELS), LABELS.index("limb")
+    walk = RandomWalk(graph, scribble, k, crease=0.03, reach=0.5)
+    reached = walk.reached()
+    sel = scribble >= 0
+    assert np.all(reached[sel] == 1.0) and np.all((reached >= 0) & (reached <= 1))
+    # the painted limb is decided by its stroke; the three others are reached by none
+    painted_limb = _part_of(graph, gt, np.flatnonzero(scribble == limb)[0])
+    assert (reached[painted_limb] >= 0.5).mean() > 0.9
+    other_limbs = (gt == limb) & ~painted_limb
+    assert reached[other_limbs].max() < 0.05
+    # a shorter reach decides fewer faces; none: every face of a painted component
+    near = RandomWalk(graph, scribble, k, crease=0.03, reach=0.1).reached()
+    assert near[~sel].mean() < reached[~sel].mean()
+    np.testing.assert_allclose(RandomWalk(graph, scribble, k, crease=0.03).reached(), 1.0, atol=1e-6)
+    clusters = graph_clusters(graph.crease_matrix, CLUSTER_SIZE)
+    coarse = RandomWalk(graph, scribble, k, crease=0.03, clusters=clusters, reach=0.5).reached()
+    assert np.abs(coarse - reached).mean() < 0.05
+
+
+def _part_of(graph: DualGraph, gt: np.ndarray, face: int) -> np.ndarray:
+    """(m,) bool: the faces of `face`'s connected part of the ground truth."""
+    from scipy.sparse.csgraph import connected_components
+
+    inside = gt[graph.pairs[:, 0]] == gt[graph.pairs[:, 1]]
+    G = graph.matrix(inside.astype(float))
+    G.eliminate_zeros()
+    _, comp = connected_components(G, directed=False)
+    return comp == comp[face]
