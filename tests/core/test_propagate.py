@@ -16,6 +16,7 @@ from scribbleseg_core.engine.propagate import (
     random_walk_probabilities,
     scribble_distances,
 )
+from scribbleseg_core.engine.regions import components
 from scribbleseg_core.geometry.dual_graph import DualGraph, dual_graph
 from tests.core.planted import LABELS, creature, stroke_faces
 
@@ -366,7 +367,8 @@ def test_walk_reached_is_high_near_strokes_and_nil_on_limbs_no_stroke_reaches(on
     sel = scribble >= 0
     assert np.all(reached[sel] == 1.0) and np.all((reached >= 0) & (reached <= 1))
     # the painted limb is decided by its stroke; the three others are reached by none
-    painted_limb = _part_of(graph, gt, np.flatnonzero(scribble == limb)[0])
+    part = components(graph, gt == limb)
+    painted_limb = part == part[np.flatnonzero(scribble == limb)[0]]
     assert (reached[painted_limb] >= 0.5).mean() > 0.9
     other_limbs = (gt == limb) & ~painted_limb
     assert reached[other_limbs].max() < 0.05
@@ -378,13 +380,3 @@ def test_walk_reached_is_high_near_strokes_and_nil_on_limbs_no_stroke_reaches(on
     coarse = RandomWalk(graph, scribble, k, crease=0.03, clusters=clusters, reach=0.5).reached()
     assert np.abs(coarse - reached).mean() < 0.05
 
-
-def _part_of(graph: DualGraph, gt: np.ndarray, face: int) -> np.ndarray:
-    """(m,) bool: the faces of `face`'s connected part of the ground truth."""
-    from scipy.sparse.csgraph import connected_components
-
-    inside = gt[graph.pairs[:, 0]] == gt[graph.pairs[:, 1]]
-    G = graph.matrix(inside.astype(float))
-    G.eliminate_zeros()
-    _, comp = connected_components(G, directed=False)
-    return comp == comp[face]
