@@ -40,18 +40,13 @@ def creature(limb_length: float = 1.6, head_size: float = 0.9, seed: int = 0) ->
 
 def stroke_faces(mesh: Mesh, gt: np.ndarray, label: int, n: int = 6) -> np.ndarray:
     """A short stroke per connected part of `label`: its n faces nearest the part's centroid."""
-    from scipy.sparse.csgraph import connected_components
-
+    from scribbleseg_core.engine.regions import components
     from scribbleseg_core.geometry.dual_graph import dual_graph
 
-    g = dual_graph(mesh.V, mesh.F)
-    inside = (gt[g.pairs[:, 0]] == label) & (gt[g.pairs[:, 1]] == label)
-    G = g.matrix(inside.astype(float))
-    G.eliminate_zeros()  # explicit zeros would count as edges
-    _, comp = connected_components(G, directed=False)
+    comp = components(dual_graph(mesh.V, mesh.F), gt == label)
     C = mesh.V[mesh.F].mean(1)
     out = []
-    for c in np.unique(comp[gt == label]):
-        part = np.flatnonzero((comp == c) & (gt == label))
+    for c in range(comp.max() + 1):
+        part = np.flatnonzero(comp == c)
         out.append(part[np.argsort(np.linalg.norm(C[part] - C[part].mean(0), axis=1))[:n]])
     return np.concatenate(out)
