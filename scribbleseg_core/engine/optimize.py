@@ -2,8 +2,9 @@
 
 ``E(Y, θ) = Σ_shapes [E_scr(Y) + E_neu(Y; θ) + E_smooth(Y)]`` is minimized alternately:
 with the labels Y fixed, the network θ is trained on them; with θ fixed, a multi-label graph
-cut finds the labels. The labels of the last cut are the result, the last network is the
-model, and every snapshot's energy is that of the labels it carries.
+cut finds the labels. The scribbled shapes' labels of the last cut are the result; the model
+(which segments the shapes without scribbles and new shapes) is the networks trained on them,
+and every snapshot's energy is that of the labels it carries.
 
 Two variants (:attr:`SegmentParams.method`):
 
@@ -91,7 +92,12 @@ class SegmentParams:
     rounds : int
         Network/graph-cut rounds at most (the paper converges in about 4); the alternation
         stops earlier when no label changes or a round lowers the total energy by less than
-        :data:`TOLERANCE`. Default 3.
+        :data:`TOLERANCE`, and a training that would raise the energy is undone and ends the
+        run. The model is trained on the result: where the last kept networks did not learn
+        the scribbled shapes' final labels on every face (an undone training; or a run that
+        stops after its first round, whose networks learn mostly the faces the strokes decide),
+        the networks that do (the undone ones; or one more training, within `rounds`) become
+        the model, and they cut the shapes without scribbles again. Default 3.
     lam : float
         ``"paper"`` only: λ of the feature term (the paper: 1).
     context_scales : tuple of float
@@ -232,17 +238,20 @@ class Snapshot:
     phase : {"init", "train", "graphcut", "done"}
     energy : EnergyTerms
         Summed over the scribbled shapes (``network`` NaN before training): the energy of
-        their `labels` under the network of this step. The labels of shapes without
-        scribbles are the model's prediction and count in no energy.
+        their `labels` under the network of this step (for the last step, under the network
+        of the last cut). The labels of shapes without scribbles are the model's prediction
+        and count in no energy.
     labels : tuple of (m_s,) int64 ndarray
         Face labels per shape (repaired faces), in the order of the shapes given; -1 for a
         shape not labeled yet (a shape without scribbles before the first network).
     changed : tuple of bool
         Per shape: did this step change its labels?
     seconds : float
-        Time this step took.
+        Time this step took; for the last step, the whole run.
     model : TrainedModel or None
         The network of this step (from the first training on); later steps train a copy.
+        The last step's is the model: networks that learned the scribbled shapes' final
+        labels on every face (see :attr:`SegmentParams.rounds`).
     held_out : tuple of ((m_s, k) float64 ndarray or None) or None
         The last step only: per shape, log label probabilities from a first-stage network
         that did not see the shape's labels (trained on the other folds of the collection),
@@ -331,21 +340,25 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         net.continue_from(warm, params.network.threads)
     model, logp, prior, best, it = None, None, None, np.inf, 0
     trained_on = None  # the labels the kept networks were trained on
+    learned = None  # networks that learned the result's labels on every face where the kept ones did not
+    partial = False  # whether the kept networks learned only some faces of their labels (round 1)
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
         previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
         # the networks learn from the shapes `taught` only; in round 1 mostly from the faces the strokes decide
-        net.fit(inputs, labels, problem.decided(labels) if it == 1 else labels)
+        learn = problem.decided(labels) if it == 1 else labels
+        net.fit(inputs, labels, learn)
         new_logp, new_prior = net.log_proba(inputs)
         new_model = net.model(problem)
         problem.use(new_model)
         e_train = problem.energy(labels, new_logp, new_prior)
         if previous is not None and e_train.total > energy.total:
-            net = previous  # training did not lower E: keep the learner that made these labels
+            learned = net  # training did not lower E: the labels stay those the previous learner made
+            net = previous
             problem.use(model)
             break
-        logp, prior, energy, model, trained_on = new_logp, new_prior, e_train, new_model, labels
+        logp, prior, energy, model, trained_on, partial = new_logp, new_prior, e_train, new_model, labels, learn is not labels
         yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
                        model)
         t = time.perf_counter()
@@ -357,11 +370,22 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
                      or energy.total > best * (1 - TOLERANCE))
         best = min(best, energy.total)
         if converged:
+            if partial and it < params.rounds:  # the first round's networks learned mostly the faces the strokes decide
+                learned = copy.deepcopy(net)
+                learned.fit(inputs, labels)
             break
+    changed = (False,) * n
+    if learned is not None:  # the model learns the result: the painted shapes' final labels, every face
+        net, trained_on = learned, labels
+        model = net.model(problem)
+        problem.use(model)
+        new = problem.cut(labels, *net.log_proba(inputs), painted=False)
+        changed = tuple(b is not None and not np.array_equal(a, b) for a, b in zip(labels, new))
+        labels = [b if b is not None else a for a, b in zip(labels, new)]
     if not net.cuts_need_boundary and trained_on is not None:
         net.fit_boundary(trained_on)  # every shape is painted: only new shapes will use it
         model = net.model(problem)
-    yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t0,
+    yield Snapshot(it, "done", energy, _frozen(labels, problem.shapes), changed, time.perf_counter() - t0,
                    model or net.model(problem), tuple(net.held_out_log_proba(inputs)))
 
 
@@ -679,11 +703,11 @@ class _FaceProblem:
             if not s.is_scribbled:
                 self.energies[i] = FaceEnergy(s.graph, s.scribble, k, p, s.sdf, model.boundary_proba(s))
 
-    def cut(self, labels, logp, prior) -> list[np.ndarray]:
-        """The scribbled shapes' cuts from their labels; the others' from scratch, as
-        :func:`~scribbleseg_core.engine.predict.predict_shape` cuts a new shape. `logp` and
-        `prior`: :meth:`_Networks.log_proba`."""
-        return [e.cut(lp, init=lab if e.is_scribbled else None, prior=pr)
+    def cut(self, labels, logp, prior, painted: bool = True) -> list[np.ndarray | None]:
+        """The scribbled shapes' cuts from their labels (None for them with ``painted=False``);
+        the others' from scratch, as :func:`~scribbleseg_core.engine.predict.predict_shape`
+        cuts a new shape. `logp` and `prior`: :meth:`_Networks.log_proba`."""
+        return [None if e.is_scribbled and not painted else e.cut(lp, init=lab if e.is_scribbled else None, prior=pr)
                 for e, lab, lp, pr in zip(self.energies, labels, logp, prior)]
 
     def energy(self, labels, logp, prior=None) -> EnergyTerms:
@@ -733,7 +757,9 @@ class _PatchProblem:
         """`labels` as they are: the paper trains on every face of the initial cut."""
         return labels
 
-    def cut(self, labels, logp, prior=None) -> list[np.ndarray | None]:
+    def cut(self, labels, logp, prior=None, painted: bool = True) -> list[np.ndarray | None]:
+        if not painted:  # the scribbled shapes are the only ones this variant segments
+            return [None] * len(self.shapes)
         self.y = [None if U is None else alpha_expansion(U + network_unary(P, lp), s.patch_pairs, w, init=y)
                   for U, P, lp, s, w, y in zip(self.U_scr, self.P, logp, self.shapes, self.W, self.y)]
         return self._faces()

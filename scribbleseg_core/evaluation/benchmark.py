@@ -147,11 +147,14 @@ TIME_PARTS: tuple[str, ...] = ("shapes", "propagation", "training", "cuts", "pre
 
 
 def _run(shapes, names, params, clock: dict):
-    """The last snapshot of the optimization; its steps' seconds added to `clock`."""
-    snap = None
+    """The last snapshot of the optimization; its steps' seconds added to `clock` (what the
+    run spent after its last cut, the model's last training, counted as training)."""
+    snap, steps = None, 0.0
     for snap in segment_collection(shapes, names, params):
         if snap.phase in _PHASES:
             clock[_PHASES[snap.phase]] += snap.seconds
+            steps += snap.seconds
+    clock["training"] += max(0.0, snap.seconds - steps)  # the "done" snapshot's seconds are the whole run's
     return snap
 
 
