@@ -341,7 +341,6 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     model, logp, prior, best, it = None, None, None, np.inf, 0
     trained_on = None  # the labels the kept networks were trained on
     learned = None  # networks that learned the result's labels on every face where the kept ones did not
-    partial = False  # whether the kept networks learned only some faces of their labels (round 1)
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
         previous = net if it > 1 else None  # round 1 starts from no network, or a warm one that did not make these labels
@@ -358,19 +357,20 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
             net = previous
             problem.use(model)
             break
-        logp, prior, energy, model, trained_on, partial = new_logp, new_prior, e_train, new_model, labels, learn is not labels
+        logp, prior, energy, model, trained_on = new_logp, new_prior, e_train, new_model, labels
         yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
                        model)
         t = time.perf_counter()
         new = problem.cut(labels, logp, prior)
-        changed = tuple(b is not None and (a is None or not np.array_equal(a, b)) for a, b in zip(labels, new))
+        changed = _changes(labels, new)
         labels, energy = new, problem.energy(new, logp, prior)
         yield Snapshot(it, "graphcut", energy, _frozen(labels, problem.shapes), changed, time.perf_counter() - t, model)
         converged = (not any(c and painted for c, painted in zip(changed, taught))
                      or energy.total > best * (1 - TOLERANCE))
         best = min(best, energy.total)
         if converged:
-            if partial and it < params.rounds:  # the first round's networks learned mostly the faces the strokes decide
+            # the kept networks learned only some faces of their labels (round 1: mostly those the strokes decide)
+            if learn is not trained_on and it < params.rounds:
                 learned = copy.deepcopy(net)
                 learned.fit(inputs, labels)
             break
@@ -380,7 +380,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         model = net.model(problem)
         problem.use(model)
         new = problem.cut(labels, *net.log_proba(inputs), painted=False)
-        changed = tuple(b is not None and not np.array_equal(a, b) for a, b in zip(labels, new))
+        changed = _changes(labels, new)
         labels = [b if b is not None else a for a, b in zip(labels, new)]
     if not net.cuts_need_boundary and trained_on is not None:
         net.fit_boundary(trained_on)  # every shape is painted: only new shapes will use it
@@ -777,6 +777,11 @@ class _PatchProblem:
 
     def model(self, learner: Learner) -> TrainedModel:
         return TrainedModel(learner, self.label_names, self.params, self.encoder, self.delta)
+
+
+def _changes(labels, new) -> tuple[bool, ...]:
+    """Per shape: does its `new` labels array (None: not cut) differ from its `labels`?"""
+    return tuple(b is not None and (a is None or not np.array_equal(a, b)) for a, b in zip(labels, new))
 
 
 def _frozen(labels, shapes) -> tuple[np.ndarray, ...]:
