@@ -93,11 +93,11 @@ class SegmentParams:
         Network/graph-cut rounds at most (the paper converges in about 4); the alternation
         stops earlier when no label changes or a round lowers the total energy by less than
         :data:`TOLERANCE`, and a training that would raise the energy is undone and ends the
-        run. The model is trained on the result: where the last kept networks did not learn
-        the scribbled shapes' final labels on every face (an undone training; or a run that
-        stops after its first round, whose networks learn mostly the faces the strokes decide),
-        the networks that do (the undone ones; or one more training, within `rounds`) become
-        the model, and they cut the shapes without scribbles again. Default 3.
+        run. The model learns every face: where the kept networks are the first round's,
+        which learn mostly the faces the strokes decide, the networks that learned the
+        scribbled shapes' final labels on every face (those of an undone second training; or
+        one more training, within `rounds`) become the model, and they cut the shapes without
+        scribbles again. Default 3.
     lam : float
         ``"paper"`` only: λ of the feature term (the paper: 1).
     context_scales : tuple of float
@@ -340,6 +340,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         net.continue_from(warm, params.network.threads)
     model, logp, prior, best, it = None, None, None, np.inf, 0
     trained_on = None  # the labels the kept networks were trained on
+    some_faces = False  # whether they learned only some faces of them
     learned = None  # networks that learned the result's labels on every face where the kept ones did not
     for it in range(1, params.rounds + 1):
         t = t if it == 1 else time.perf_counter()
@@ -353,11 +354,14 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         problem.use(new_model)
         e_train = problem.energy(labels, new_logp, new_prior)
         if previous is not None and e_train.total > energy.total:
-            learned = net  # training did not lower E: the labels stay those the previous learner made
+            # training did not lower E: the labels stay those the previous learner made; the
+            # undone networks become the model if the kept ones learned only some faces
+            learned = net if some_faces else None
             net = previous
             problem.use(model)
             break
         logp, prior, energy, model, trained_on = new_logp, new_prior, e_train, new_model, labels
+        some_faces = learn is not labels  # round 1: mostly the faces the strokes decide
         yield Snapshot(it, "train", energy, _frozen(labels, problem.shapes), (False,) * n, time.perf_counter() - t,
                        model)
         t = time.perf_counter()
@@ -369,13 +373,12 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
                      or energy.total > best * (1 - TOLERANCE))
         best = min(best, energy.total)
         if converged:
-            # the kept networks learned only some faces of their labels (round 1: mostly those the strokes decide)
-            if learn is not trained_on and it < params.rounds:
+            if some_faces and it < params.rounds:
                 learned = copy.deepcopy(net)
                 learned.fit(inputs, labels)
             break
     changed = (False,) * n
-    if learned is not None:  # the model learns the result: the painted shapes' final labels, every face
+    if learned is not None:  # the model learns every face: the painted shapes' final labels
         net, trained_on = learned, labels
         model = net.model(problem)
         problem.use(model)

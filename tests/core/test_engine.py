@@ -253,6 +253,48 @@ def test_the_model_learns_the_result_and_labels_the_unpainted_shapes(monkeypatch
     assert (final.labels[2] == gts[2]).mean() >= 0.9
 
 
+@pytest.mark.parametrize("undone_round", [2, 3])
+def test_an_undone_training_leaves_a_model_that_learned_every_face(collection, monkeypatch, undone_round):
+    """A training that raises the energy is undone and ends the run. If the kept networks are
+    the first round's (which learn mostly the faces the strokes decide), the undone ones, which
+    learned every face of the final labels, become the model; later networks stay the model."""
+    from scribbleseg_core.engine import optimize
+    from scribbleseg_core.engine.energy import EnergyTerms
+    from scribbleseg_core.engine.network import FaceClassifier
+
+    shapes, _, _ = collection
+    # scripted energies: every cut changes labels and lowers E; the training of `undone_round` raises it
+    totals = [1000.0, 900.0, 800.0, 700.0, 600.0, 500.0, 400.0]
+    totals[2 * undone_round - 1] = totals[2 * undone_round - 2] + 50.0
+    calls = iter(totals)
+    monkeypatch.setattr(optimize._FaceProblem, "energy", lambda self, *a, **kw: EnergyTerms(next(calls), 0.0, 0.0))
+    monkeypatch.setattr(optimize, "_changes", lambda labels, new: tuple(b is not None for b in new))
+    inputs = [PARAMS.network_input(s) for s in shapes]
+    taught = {}  # stage-1 network → the labels of its last fit, per shape
+    fit = FaceClassifier.fit
+
+    def recording_fit(self, X, y, **kw):
+        if X[0].shape[1] == inputs[0].shape[1]:
+            ids = [next(i for i, x in enumerate(inputs) if len(x) == len(xi) and np.array_equal(x, xi)) for xi in X]
+            taught[id(self)] = dict(zip(ids, (np.asarray(yi) for yi in y)))
+        return fit(self, X, y, **kw)
+
+    monkeypatch.setattr(FaceClassifier, "fit", recording_fit)
+    snaps = list(segment_collection(shapes, LABELS, PARAMS))
+    trainings = [s for s in snaps if s.phase == "train"]
+    assert len(trainings) == undone_round - 1  # the undone training yields no snapshot
+    final = snaps[-1]
+    kept = trainings[-1].model.learner.stage1
+    if undone_round == 2:
+        assert final.model.learner.stage1 is not kept
+        learned = taught[id(final.model.learner.stage1)]
+        for i in (0, 1, 2):
+            np.testing.assert_array_equal(learned[i], final.labels[i])
+    else:
+        assert final.model.learner.stage1 is kept
+    np.testing.assert_array_equal(final.labels[3], predict_shape(final.model, shapes[3]))
+
+
 def test_a_shape_without_scribbles_joins_at_the_first_cut(collection):
     shapes, _, snaps = collection
     assert not shapes[3].is_scribbled
