@@ -293,8 +293,8 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
     """One report from benchmarks run apart (say one per core, over different categories,
     or one mode here and another there).
 
-    Every part must have been run with the same settings but for the modes; a category's
-    mode in several parts is refused. The parts' ``.seg`` files are copied into `out` and
+    Every part must have been run with the same settings but for the modes and the
+    collection sizes (``scribbled``); a category's mode in several parts is refused. The parts' ``.seg`` files are copied into `out` and
     every error is verified again from them.
 
     Parameters
@@ -313,13 +313,14 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
     out = Path(out)
     if any(out.resolve() == Path(p).resolve() for p in parts):
         raise ScribblesegError(f"{out}: the merged report cannot go into one of its parts")
-    merged, all_modes = None, []
+    merged, all_modes, sizes = None, [], set()
     for part in map(Path, parts):
         path = part / "report.json"
         try:
             rep = json.loads(path.read_text())
             settings, categories = dict(rep["settings"]), rep["categories"]
             modes = settings.pop("modes")
+            scribbled = settings.pop("scribbled")
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
             raise ScribblesegError(f"{path}: not a benchmark report ({e})") from None
         if merged is None:
@@ -327,6 +328,8 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
         elif settings != merged["settings"]:
             raise ScribblesegError(f"{path}: run with other settings than {parts[0]}: {settings} vs {merged['settings']}")
         all_modes += [m for m in modes if m not in all_modes]
+        if "collection" in modes:
+            sizes.update(scribbled)
         for cat, entry in categories.items():
             have = merged["categories"].setdefault(cat, {})
             twice = [key for key, val in entry.items() if isinstance(val, dict) and key in have]
@@ -337,7 +340,7 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
                 shutil.copytree(part / cat, out / cat, dirs_exist_ok=True)
     if merged is None:
         raise ScribblesegError("no reports to merge")
-    merged["settings"] = {"modes": all_modes, **merged["settings"]}
+    merged["settings"] = {"modes": all_modes, "scribbled": sorted(sizes), **merged["settings"]}
     merged["categories"] = dict(sorted(merged["categories"].items()))
     return finish_report(root, out, merged)
 

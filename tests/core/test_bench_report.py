@@ -127,6 +127,13 @@ def test_reports_run_apart_merge_into_one(tmp_path, planted_root):
     assert (tmp_path / "m5" / "Second" / "test").is_dir() and (tmp_path / "m5" / "Second" / "train").is_dir()
     with pytest.raises(ScribblesegError, match=r"Second \(test\) is in more than one part"):
         merge_reports(root, [tmp_path / "t", tmp_path / "t"], tmp_path / "m6")
+    # and by collection size: 1 painted here, 2 there
+    one = bench(root, tmp_path / "k1", modes=("collection",), cats=["Second"], folds=3, scribbled=(1,), params=FAST)
+    bench(root, tmp_path / "k2", modes=("collection",), cats=["Second"], folds=3, scribbled=(2,), params=FAST)
+    sizes = merge_reports(root, [tmp_path / "k1", tmp_path / "k2", tmp_path / "t"], tmp_path / "m7")
+    assert sizes["settings"]["modes"] == ["collection", "test"] and sizes["settings"]["scribbled"] == [1, 2]
+    assert set(sizes["categories"]["Second"]) >= {"collection_1", "collection_2", "test"}
+    assert sizes["average"]["collection_1"]["ri_error"] == pytest.approx(one["average"]["collection_1"]["ri_error"])
     (tmp_path / "bad").mkdir()
     (tmp_path / "bad" / "report.json").write_text("{")
     with pytest.raises(ScribblesegError, match="not a benchmark report"):
