@@ -294,8 +294,8 @@ def merge_reports(root: Path, parts: list[Path], out: Path) -> dict:
     or one mode here and another there).
 
     Every part must have been run with the same settings but for the modes and the
-    collection sizes (``scribbled``); a category's mode in several parts is refused. The parts' ``.seg`` files are copied into `out` and
-    every error is verified again from them.
+    collection sizes (``scribbled``); a category's mode in several parts is refused. The
+    parts' ``.seg`` files are copied into `out` and every error is verified again from them.
 
     Parameters
     ----------
