@@ -211,12 +211,28 @@ def test_energy_never_increases_and_the_result_is_the_last_cut(collection, paper
         assert snaps[-1].energy == last_cut.energy
 
 
+def _record_stage1_fits(monkeypatch, inputs) -> dict:
+    """Record every stage-1 fit: network id → {shape index: the labels of its last fit}.
+    `inputs` are the shapes' stage-1 inputs, by which a fit's shapes are recognized."""
+    from scribbleseg_core.engine.network import FaceClassifier
+
+    taught = {}
+    fit = FaceClassifier.fit
+
+    def recording_fit(self, X, y, **kw):
+        if X[0].shape[1] == inputs[0].shape[1]:
+            ids = [next(i for i, x in enumerate(inputs) if len(x) == len(xi) and np.array_equal(x, xi)) for xi in X]
+            taught[id(self)] = dict(zip(ids, (np.asarray(yi) for yi in y)))
+        return fit(self, X, y, **kw)
+
+    monkeypatch.setattr(FaceClassifier, "fit", recording_fit)
+    return taught
+
+
 def test_the_model_learns_the_result_and_labels_the_unpainted_shapes(monkeypatch):
     """The final model's networks learned every face of the scribbled shapes' final labels,
     even where the alternation stopped after its first round (whose networks learn only the
     faces the strokes decide); the shape without scribbles is what that model predicts."""
-    from scribbleseg_core.engine.network import FaceClassifier
-
     shapes, gts = [], []
     for i, (limb, head) in enumerate([(1.6, 0.9), (1.2, 0.7), (1.4, 0.8)]):
         mesh, gt = creature(limb, head, seed=i)
@@ -229,16 +245,7 @@ def test_the_model_learns_the_result_and_labels_the_unpainted_shapes(monkeypatch
         gts.append(gt)
     params = dataclasses.replace(PARAMS, decided=1.0)  # only the painted faces are decided
     inputs = [params.network_input(s) for s in shapes]
-    taught = {}  # stage-1 network → the labels of its last fit, per shape
-    fit = FaceClassifier.fit
-
-    def recording_fit(self, X, y, **kw):
-        if X[0].shape[1] == inputs[0].shape[1]:
-            ids = [next(i for i, x in enumerate(inputs) if len(x) == len(xi) and np.array_equal(x, xi)) for xi in X]
-            taught[id(self)] = dict(zip(ids, (np.asarray(yi) for yi in y)))
-        return fit(self, X, y, **kw)
-
-    monkeypatch.setattr(FaceClassifier, "fit", recording_fit)
+    taught = _record_stage1_fits(monkeypatch, inputs)
     monkeypatch.setattr("scribbleseg_core.engine.optimize.UNDECIDED_SHARE", 0.0)
     snaps = list(segment_collection(shapes, LABELS, params))
     assert [s.phase for s in snaps[1:]] == ["train", "graphcut", "done"]
@@ -260,7 +267,6 @@ def test_an_undone_training_leaves_a_model_that_learned_every_face(collection, m
     learned every face of the final labels, become the model; later networks stay the model."""
     from scribbleseg_core.engine import optimize
     from scribbleseg_core.engine.energy import EnergyTerms
-    from scribbleseg_core.engine.network import FaceClassifier
 
     shapes, _, _ = collection
     # scripted energies: every cut changes labels and lowers E; the training of `undone_round` raises it
@@ -270,16 +276,7 @@ def test_an_undone_training_leaves_a_model_that_learned_every_face(collection, m
     monkeypatch.setattr(optimize._FaceProblem, "energy", lambda self, *a, **kw: EnergyTerms(next(calls), 0.0, 0.0))
     monkeypatch.setattr(optimize, "_changes", lambda labels, new: tuple(b is not None for b in new))
     inputs = [PARAMS.network_input(s) for s in shapes]
-    taught = {}  # stage-1 network → the labels of its last fit, per shape
-    fit = FaceClassifier.fit
-
-    def recording_fit(self, X, y, **kw):
-        if X[0].shape[1] == inputs[0].shape[1]:
-            ids = [next(i for i, x in enumerate(inputs) if len(x) == len(xi) and np.array_equal(x, xi)) for xi in X]
-            taught[id(self)] = dict(zip(ids, (np.asarray(yi) for yi in y)))
-        return fit(self, X, y, **kw)
-
-    monkeypatch.setattr(FaceClassifier, "fit", recording_fit)
+    taught = _record_stage1_fits(monkeypatch, inputs)
     snaps = list(segment_collection(shapes, LABELS, PARAMS))
     trainings = [s for s in snaps if s.phase == "train"]
     assert len(trainings) == undone_round - 1  # the undone training yields no snapshot
