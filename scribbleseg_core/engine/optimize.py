@@ -149,9 +149,9 @@ class SegmentParams:
         labels, fall in its fold, and share its faces of an epoch, so a training sees as many
         faces as without them. Parts that differ between shapes by their proportions more
         than by their form (a thicker torso, longer legs) are then told apart by form. Shapes
-        painted with strokes have none: their labels away from the strokes are the
-        alternation's guesses, which copies would only teach twice. The copies' signatures
-        are computed once per shape and cached. 0: none. Default 1.
+        painted with strokes have none: away from the strokes their labels are the
+        alternation's guesses, which a copy repeats. The copies' signatures are computed
+        once per shape and cached. 0: none. Default 1.
     network : NetworkParams
         The classifier and its training.
     propagation : PropagateParams
