@@ -250,7 +250,7 @@ def _bench_params(args):
                                                                  walk_reach=args.walk_reach,
                                                                  convex=args.convex, boundary=args.boundary)),
                    **given(local_shape=args.local_shape, label_context=args.label_context, rounds=args.rounds,
-                           decided=args.decided, stretched_copies=args.stretched_copies))
+                           decided=args.decided))
 
 
 def _cmd_bench_merge(args) -> int:
@@ -386,9 +386,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--label-context", action=argparse.BooleanOptionalAction, default=None,
                    help="the learner's second stage, which reads where the first stage puts each label around "
                         "the face (default SegmentParams.label_context)")
-    p.add_argument("--stretched-copies", type=_int_at_least(0), default=None,
-                   help="stretched copies of each fully labeled shape that train beside it "
-                        "(default SegmentParams.stretched_copies; 0 = none)")
     p.add_argument("--out", required=True)
     p.add_argument("--quiet", action="store_true")
     _cluster_options(p, "the signatures")

@@ -97,8 +97,7 @@ def test_bench_refuses_out_of_range_options_before_running(tmp_path):
                                    ("--rounds", "0", "must be at least 1"),
                                    ("--decided", "2", "must lie in [0, 1]"),
                                    ("--walk", "-1", "must not be negative"),
-                                   ("--folds", "1", "must be at least 2"),
-                                   ("--stretched-copies", "-1", "must be at least 0")]:
+                                   ("--folds", "1", "must be at least 2")]:
         r = _run("bench", str(tmp_path), option, value, "--out", str(tmp_path / "out"))
         assert r.returncode == 2 and "Traceback" not in r.stderr
         assert f"argument {option}: {message}" in r.stderr
@@ -115,11 +114,9 @@ def test_bench_options_reach_the_engine():
     assert default == SegmentParams()
     params = _bench_params(parse(["bench", "data", "--out", "o", "--network-seed", "3", "--threads", "1",
                                   "--walk", "0", "--convex", "0.1", "--contrast", "0", "--no-local-shape",
-                                  "--method", "paper", "--rounds", "2", "--decided", "0",
-                                  "--stretched-copies", "0"]))
+                                  "--method", "paper", "--rounds", "2", "--decided", "0"]))
     assert (params.network.seed, params.network.threads, params.method, params.rounds) == (3, 1, "paper", 2)
     assert params.decided == 0 and default.decided > 0
-    assert params.stretched_copies == 0 and default.stretched_copies > 0
     assert (params.propagation.walk, params.propagation.convex, params.propagation.contrast) == (0, 0.1, 0)
     assert not params.local_shape
     with pytest.raises(SystemExit):

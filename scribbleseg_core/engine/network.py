@@ -91,25 +91,20 @@ class _EpochSampler:
     per_shape : int
         Faces drawn from each shape per epoch (without replacement; all where fewer).
     seed : int
-    shares : list of float, optional
-        Per shape, the share of `per_shape` drawn from it (at least one face); default 1 each.
     """
 
-    def __init__(self, X, y, per_shape: int, seed: int, shares=None):
+    def __init__(self, X, y, per_shape: int, seed: int):
         keep = [np.flatnonzero(np.asarray(yi) >= 0) for yi in y]
         used = [i for i, k in enumerate(keep) if len(k)]
-        shares = np.ones(len(y)) if shares is None else np.asarray(shares, dtype=np.float64)
-        if len(shares) != len(y):
-            raise ValueError(f"{len(shares)} shares for {len(y)} shapes")
         self.X = [X[i] for i in used]
         self.keep = [keep[i] for i in used]
         self.y = [np.asarray(y[i])[keep[i]].astype(np.int64) for i in used]
-        self.count = [max(1, round(per_shape * shares[i])) for i in used]
+        self.per_shape = per_shape
         self.rng = np.random.default_rng(seed)
 
     def __len__(self) -> int:
         """Faces per epoch."""
-        return sum(min(len(k), c) for k, c in zip(self.keep, self.count))
+        return sum(min(len(k), self.per_shape) for k in self.keep)
 
     def label_counts(self, k: int) -> np.ndarray:
         """(k,) labeled faces per label over all shapes."""
@@ -117,8 +112,8 @@ class _EpochSampler:
 
     def draw(self) -> tuple[np.ndarray, np.ndarray]:
         """This epoch's faces in random order: inputs (N, d) and labels (N,)."""
-        rows = [self.rng.choice(len(k), c, replace=False) if len(k) > c else np.arange(len(k))
-                for k, c in zip(self.keep, self.count)]
+        rows = [self.rng.choice(len(k), self.per_shape, replace=False) if len(k) > self.per_shape else
+                np.arange(len(k)) for k in self.keep]
         Xe = np.concatenate([Xi[k[r]] for Xi, k, r in zip(self.X, self.keep, rows)])
         ye = np.concatenate([yi[r] for yi, r in zip(self.y, rows)])
         order = self.rng.permutation(len(ye))
@@ -257,8 +252,7 @@ class FaceClassifier:
             torch.manual_seed(self.params.seed)
             return build_mlp(self.num_inputs, self.num_labels, self.params.hidden, self.params.dropout, self.params.seed)
 
-    def fit(self, X: list[np.ndarray], y: list[np.ndarray], *, warm: bool = False, threads: int | None = None,
-            shares: list[float] | None = None) -> float:
+    def fit(self, X: list[np.ndarray], y: list[np.ndarray], *, warm: bool = False, threads: int | None = None) -> float:
         """Train on the faces of several shapes.
 
         Parameters
@@ -273,9 +267,6 @@ class FaceClassifier:
             Fits that run at once in several Python threads pass 1 each (torch's thread
             count is the process's). Training draws nothing from torch's generator, so a
             fit's result does not depend on what runs beside it.
-        shares : list of float, optional
-            Per shape, the share of ``faces_per_epoch`` drawn from it each epoch (a shape and
-            its stretched copies share one shape's draw); default 1 each.
 
         Returns
         -------
@@ -287,7 +278,7 @@ class FaceClassifier:
         p = self.params
         torch.set_num_threads(threads or p.threads or torch_threads())
         warm = warm and self.trained
-        data = _EpochSampler(X, y, p.faces_per_epoch, p.seed, shares)
+        data = _EpochSampler(X, y, p.faces_per_epoch, p.seed)
         if not warm:
             first, _ = data.draw()
             self.mean, self.std = first.mean(0), first.std(0) + 1e-8

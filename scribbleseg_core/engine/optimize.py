@@ -28,8 +28,7 @@ cross-fitted network term (:class:`_Networks`), the random-walker term with the 
 convex-crease weight of the smoothness (:class:`~scribbleseg_core.engine.propagate.PropagateParams`),
 the multi-scale context and local shape among the network's inputs (:attr:`SegmentParams.context_scales`,
 :attr:`SegmentParams.local_shape`), the label-context stage of the learner
-(:attr:`SegmentParams.label_context`, :mod:`~scribbleseg_core.engine.learner`), the fully labeled
-shapes' stretched copies among the training shapes (:attr:`SegmentParams.stretched_copies`), the learned
+(:attr:`SegmentParams.label_context`, :mod:`~scribbleseg_core.engine.learner`), the learned
 boundary term that smooths shapes without scribbles (:mod:`~scribbleseg_core.engine.boundary`),
 and those shapes segmented at every cut, so that the whole collection's labels stream while
 the painted shapes are optimized.
@@ -69,13 +68,6 @@ METHODS: tuple[str, ...] = ("face", "paper")
 Phase = Literal["init", "train", "graphcut", "done"]
 #: The alternation has converged when a round lowers the total energy by less than this fraction.
 TOLERANCE = 1e-3
-
-
-#: How far the stretched copies of the fully labeled shapes are stretched
-#: (:attr:`SegmentParams.stretched_copies`): by factors ``exp(u)``, ``u`` uniform in ±this, along
-#: three random orthogonal axes (:meth:`ShapeData.stretched
-#: <scribbleseg_core.engine.shape.ShapeData.stretched>`).
-STRETCH = 0.35
 
 
 #: The share of the faces the strokes do not decide that the first round's networks learn
@@ -140,18 +132,6 @@ class SegmentParams:
         the networks would learn; from the second round they learn every face, labeled by
         the cut that their model joined. 0, or a walk without a reach: every face from the
         first round. Default 0.5.
-    stretched_copies : int
-        ``"face"`` only: every fully labeled shape (:attr:`ShapeData.is_fully_labeled
-        <scribbleseg_core.engine.shape.ShapeData.is_fully_labeled>`) also trains the networks
-        (and the boundary term) as this many copies of itself stretched along three random
-        orthogonal axes by up to ``exp(±``:data:`STRETCH```)`` (:meth:`ShapeData.stretched
-        <scribbleseg_core.engine.shape.ShapeData.stretched>`): the copies learn their shape's
-        labels, fall in its fold, and share its faces of an epoch, so a training sees as many
-        faces as without them. Parts that differ between shapes by their proportions more
-        than by their form (a thicker torso, longer legs) are then told apart by form. Shapes
-        painted with strokes have none: away from the strokes their labels are the
-        alternation's guesses, which a copy repeats. The copies' signatures are computed
-        once per shape and cached. 0: none. Default 1.
     network : NetworkParams
         The classifier and its training.
     propagation : PropagateParams
@@ -166,7 +146,6 @@ class SegmentParams:
     label_context: bool = True
     cross_fit: float = 0.7
     decided: float = 0.5
-    stretched_copies: int = 1
     network: NetworkParams = field(default_factory=NetworkParams)
     propagation: PropagateParams = field(default_factory=PropagateParams)
 
@@ -177,8 +156,6 @@ class SegmentParams:
             raise ValueError(f"decided must lie in [0, 1]; got {self.decided}")
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {', '.join(map(repr, METHODS))}; got {self.method!r}")
-        if self.stretched_copies < 0:
-            raise ValueError(f"stretched_copies must not be negative; got {self.stretched_copies}")
         if self.rounds < 1:
             raise ValueError(f"rounds must be at least 1; got {self.rounds}")
         if not self.lam >= 0:
@@ -355,14 +332,10 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
     taught = [s.is_scribbled for s in problem.shapes]  # the shapes whose labels train the networks
     d = next(x.shape[1] for x in inputs if x is not None)
     share = params.cross_fit if params.method == "face" else 0.0
-    full = [s.is_fully_labeled for s in problem.shapes]
-    copies = _stretched_copies(problem.shapes, full, params) if params.method == "face" else []
-    shapes = problem.shapes + [c for _, c in copies]  # the copies follow the shapes: what trains
-    train = inputs + [params.network_input(c) for _, c in copies]
+    shapes = problem.shapes
     context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
-    edges_of = _edges_of(shapes, train) if params.method == "face" and params.propagation.boundary > 0 else None
-    net = _Networks(d, len(problem.label_names), params.network, share, taught, context_of, edges_of,
-                    [o for o, _ in copies])
+    edges_of = _edges_of(shapes, inputs) if params.method == "face" and params.propagation.boundary > 0 else None
+    net = _Networks(d, len(problem.label_names), params.network, share, taught, context_of, edges_of)
     if warm is not None and _continues(warm, net.main, problem.label_names, params):
         net.continue_from(warm, params.network.threads)
     model, logp, prior, best, it = None, None, None, np.inf, 0
@@ -375,7 +348,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         net = copy.deepcopy(net)  # the snapshots keep the networks they were made with
         # the networks learn from the shapes `taught` only; in round 1 mostly from the faces the strokes decide
         learn = problem.decided(labels) if it == 1 else labels
-        net.fit(train, labels, learn)
+        net.fit(inputs, labels, learn)
         new_logp, new_prior = net.log_proba(inputs)
         new_model = net.model(problem)
         problem.use(new_model)
@@ -402,7 +375,7 @@ def _alternate(problem, params: SegmentParams, warm: TrainedModel | None = None)
         if converged:
             if some_faces and it < params.rounds:
                 learned = copy.deepcopy(net)
-                learned.fit(train, labels)
+                learned.fit(inputs, labels)
             break
     changed = (False,) * n
     if learned is not None:  # the model learns every face: the painted shapes' final labels
@@ -426,8 +399,7 @@ def fit_model(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], label_n
     What the alternation's training step does with fixed labels: stage 1 on every shape,
     (with label context) stage 2 on stage-1 probabilities from the networks trained on the
     other folds of the shapes, and (``propagation.boundary > 0``) the learned boundary term on
-    the labels' boundaries; the fully labeled shapes with their stretched copies
-    (:attr:`SegmentParams.stretched_copies`). It compares learners apart from the alternation
+    the labels' boundaries. It compares learners apart from the alternation
     (``scripts/learner_alone.py``).
 
     Parameters
@@ -441,27 +413,15 @@ def fit_model(shapes: Sequence[ShapeData], labels: Sequence[np.ndarray], label_n
     """
     if len(shapes) != len(labels):
         raise ValueError(f"{len(shapes)} shapes but {len(labels)} label arrays")
-    labels = [np.asarray(lab, dtype=np.int64) for lab in labels]
-    copies = _stretched_copies(shapes, [lab.size > 0 and (lab >= 0).all() for lab in labels], params)
     inputs = [params.network_input(s) for s in shapes]
-    d = inputs[0].shape[1]
-    shapes = list(shapes) + [c for _, c in copies]
-    inputs += [params.network_input(c) for _, c in copies]
     context_of = (lambda i: shapes[i].label_context) if params.uses_label_context else None
     edges_of = _edges_of(shapes, inputs) if params.propagation.boundary > 0 else None
-    net = _Networks(d, len(label_names), params.network, 0.0, [True] * len(labels), context_of, edges_of,
-                    [o for o, _ in copies])
+    net = _Networks(inputs[0].shape[1], len(label_names), params.network, 0.0, [True] * len(shapes), context_of,
+                    edges_of)
+    labels = [np.asarray(lab, dtype=np.int64) for lab in labels]
     net.fit(inputs, labels)
     net.fit_boundary(labels)  # every shape is labeled: fit does not train it
     return TrainedModel(net.main, tuple(label_names), params, fold_nets=tuple(net.fold_nets), boundary=net.boundary)
-
-
-def _stretched_copies(shapes: Sequence[ShapeData], copied: Sequence[bool],
-                      params: SegmentParams) -> list[tuple[int, ShapeData]]:
-    """``(i, copy)`` for each of the :attr:`SegmentParams.stretched_copies` stretched copies of
-    every shape i that is `copied`, in order of shape then copy."""
-    return [(i, s.stretched(j, STRETCH)) for i, s in enumerate(shapes) if copied[i]
-            for j in range(params.stretched_copies)]
 
 
 def _edges_of(shapes: Sequence[ShapeData], inputs):
@@ -517,10 +477,6 @@ class _Networks:
     * the label-context stage (`context_of` given): it is trained on the label distances of
       these held-out probabilities, as it will meet on new shapes.
 
-    Stretched copies of the fully labeled shapes (:attr:`SegmentParams.stretched_copies`) train
-    beside them: indexed after the shapes, each learns its original's labels, falls in its
-    original's fold, and shares its original's faces of an epoch.
-
     Parameters
     ----------
     d, k : int
@@ -536,21 +492,12 @@ class _Networks:
         A shape's :func:`~scribbleseg_core.engine.boundary.edge_features` and the
         :func:`~scribbleseg_core.engine.boundary.label_boundaries` of its labels: a boundary
         classifier is trained on the scribbled shapes' labels with the networks. None: none.
-    copies_of : sequence of int
-        Per stretched copy, the scribbled shape it is a copy of; copy j is index
-        ``len(mixed) + j`` of `context_of`, `edges_of` and :meth:`fit`'s inputs.
     """
 
     def __init__(self, d: int, k: int, params: NetworkParams, share: float, mixed: Sequence[bool], context_of=None,
-                 edges_of=None, copies_of: Sequence[int] = ()):
-        own = len(mixed)
-        self.origin = np.concatenate([np.arange(own), np.asarray(copies_of, dtype=np.int64)])
-        if any(not mixed[o] for o in copies_of):
-            raise ValueError("only scribbled shapes have stretched copies")
-        self.mixed = [bool(mixed[o]) for o in self.origin]
-        n = sum(map(bool, mixed))
-        # a shape and its copies share one shape's faces of an epoch
-        self.shares = 1.0 / np.bincount(self.origin, minlength=own)[self.origin]
+                 edges_of=None):
+        self.mixed = [bool(b) for b in mixed]
+        n = sum(self.mixed)
         self.params = params
         self.context_of, self.edges_of = context_of, edges_of
         self.boundary: BoundaryClassifier | None = None
@@ -559,8 +506,7 @@ class _Networks:
         self.share = share if n >= 2 else 0.0
         held_out = n >= 2 and (self.share > 0 or context_of is not None)
         folds = fold_count(n) if held_out else 0
-        # dealt in turn (unused for the shapes without scribbles); a copy goes with its shape
-        self.fold_of = ((np.cumsum(np.asarray(mixed, dtype=bool)) - 1) % max(folds, 1))[self.origin]
+        self.fold_of = (np.cumsum(self.mixed) - 1) % max(folds, 1)  # dealt in turn; unused for the others
         self.fold_nets = [FaceClassifier(d, k, params) for _ in range(folds)]
         self._held: dict[int, tuple[int, np.ndarray]] = {}  # shape -> (id of its input, held-out log P)
 
@@ -593,25 +539,17 @@ class _Networks:
         probabilities come, two at a time on one thread each."""
         return (self.params.threads or torch_threads()) >= 2
 
-    def _with_copies(self, labels) -> list:
-        """Per-shape `labels` followed by each stretched copy's, its original's."""
-        return [labels[o] for o in self.origin]
-
     def fit_boundary(self, labels) -> None:
-        """Train the boundary classifier afresh on the scribbled shapes' `labels` (one per
-        shape) and their copies'."""
+        """Train the boundary classifier afresh on the scribbled shapes' `labels`."""
         if self.edges_of is None:
             return
-        taught = (self.edges_of(i, lab) for i, lab in enumerate(self._with_copies(labels))
-                  if lab is not None and self.mixed[i])
+        taught = (self.edges_of(i, lab) for i, lab in enumerate(labels) if lab is not None and self.mixed[i])
         self.boundary = BoundaryClassifier.fit(taught, seed=self.params.seed, threads=self.params.threads)
 
     def fit(self, inputs, labels, learn=None) -> None:
         """Train on every scribbled shape with labels and inputs, warm when trained before; the
         boundary classifier on the same labels, afresh, when the cuts need it. `learn`: the
-        labels the networks learn (-1 on faces they skip), default `labels`. `inputs` holds
-        the shapes' and then the stretched copies' inputs; `labels` and `learn` one entry a
-        shape (a copy learns its shape's).
+        labels the networks learn (-1 on faces they skip), default `labels`.
 
         With two or more torch threads to use and fold networks to train, the networks train
         in two lanes at once, one torch thread each: the even folds' networks, stage 2's
@@ -619,16 +557,14 @@ class _Networks:
         inputs on theirs, then stage 2 (which needs both). Small networks use a second core
         better this way than through torch's threads within each operation; the networks are
         the same."""
-        if len(inputs) != len(self.origin):
-            raise ValueError(f"{len(inputs)} inputs for {len(self.origin)} shapes and copies")
-        if self.cuts_need_boundary:
-            self.fit_boundary(labels)
-        labels = self._with_copies(labels if learn is None else learn)
         usable = [i for i, (x, lab) in enumerate(zip(inputs, labels))
                   if x is not None and lab is not None and self.mixed[i]]
+        if self.cuts_need_boundary:
+            self.fit_boundary(labels)
+        labels = labels if learn is None else learn
 
         def data(which):
-            return [inputs[i] for i in which], [labels[i] for i in which], [self.shares[i] for i in which]
+            return [inputs[i] for i in which], [labels[i] for i in which]
 
         folds = [[i for i in usable if self.fold_of[i] != f] for f in range(len(self.fold_nets))]
         self._held = {}
@@ -653,11 +589,11 @@ class _Networks:
                 self._fit_fold(f, *data(others))
         self._fit_second(self._context_inputs(inputs, usable), labels, usable)
 
-    def _fit_first(self, X, y, shares, threads: int | None = None) -> None:
-        self.main.stage1.fit(X, y, warm=self.main.stage1.trained, threads=threads, shares=shares)
+    def _fit_first(self, X, y, threads: int | None = None) -> None:
+        self.main.stage1.fit(X, y, warm=self.main.stage1.trained, threads=threads)
 
-    def _fit_fold(self, f: int, X, y, shares, threads: int | None = None) -> None:
-        self.fold_nets[f].fit(X, y, warm=self.fold_nets[f].trained, threads=threads, shares=shares)
+    def _fit_fold(self, f: int, X, y, threads: int | None = None) -> None:
+        self.fold_nets[f].fit(X, y, warm=self.fold_nets[f].trained, threads=threads)
 
     def _context_inputs(self, inputs, which, threads: int | None = None) -> dict[int, np.ndarray]:
         """Stage 2's inputs of shapes `which`: their descriptors and the label distances of
@@ -673,7 +609,7 @@ class _Networks:
         if second is None:
             return
         second.fit([context_inputs[i] for i in usable], [labels[i] for i in usable], warm=second.trained,
-                   threads=threads, shares=[self.shares[i] for i in usable])
+                   threads=threads)
 
     def _held_out(self, i: int) -> FaceClassifier | None:
         """The trained first-stage network that did not see shape i's labels, if any (none for

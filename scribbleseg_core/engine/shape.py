@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,8 +34,6 @@ class ShapeData:
         Scribble label per face (collection label ids), -1 where unscribbled.
     target_patches : int
         About how many primitive patches :attr:`patch` splits the shape into.
-    feature_params : FeatureParams
-        What `X` was computed with; :meth:`stretched` copies compute theirs the same way.
     """
 
     mesh: Mesh
@@ -46,8 +44,6 @@ class ShapeData:
     target_patches: int = 50
     context_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
     geodesic_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
-    feature_params: FeatureParams = field(default_factory=FeatureParams, repr=False, compare=False)
-    feature_cache: ArrayCache | None = field(default=None, repr=False, compare=False)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -77,29 +73,6 @@ class ShapeData:
                                              sources=self.source_distances if context_scales else None,
                                              cache=self.context_cache)
         return self._cache[key]
-
-    def stretched(self, index: int = 0, amplitude: float = 0.35) -> ShapeData:
-        """A copy of this shape stretched about its vertex mean along three random orthogonal
-        axes by factors ``exp(u)``, ``u`` uniform in ±`amplitude` (0.70–1.42 by default): the
-        same faces (so the same face labels), its own signatures and contexts, computed and
-        cached as any shape's, and no scribbles.
-
-        The stretch is drawn from the shape's vertices and `index` alone, so a shape's
-        `index`-th copy is the same in every run and its signatures are read from the cache.
-        """
-        from scipy.spatial.transform import Rotation
-
-        seed = int(hash_arrays(self.mesh.V, self.mesh.F, meta={"stretched": index})[:16], 16)
-        rng = np.random.default_rng(seed)
-        R = Rotation.random(random_state=rng).as_matrix()
-        S = R @ np.diag(np.exp(rng.uniform(-amplitude, amplitude, 3))) @ R.T
-        c = self.mesh.V.mean(0)
-        mesh = replace(self.mesh, V=np.ascontiguousarray((self.mesh.V - c) @ S + c), _cache={})
-        X = cached_face_features(mesh.V, mesh.F, self.feature_params, cache=self.feature_cache)
-        V = mesh.normalized()
-        return ShapeData(mesh, X, face_areas(V, mesh.F), dual_graph(V, mesh.F), np.full(len(mesh.F), -1, np.int64),
-                         self.target_patches, self.context_cache, self.geodesic_cache, self.feature_params,
-                         self.feature_cache)
 
     @property
     def source_distances(self) -> SourceDistances:
@@ -135,11 +108,6 @@ class ShapeData:
     @property
     def is_scribbled(self) -> bool:
         return bool((self.scribble >= 0).any())
-
-    @property
-    def is_fully_labeled(self) -> bool:
-        """Every face carries a label (a ``.seg`` read in, or a result the user accepted)."""
-        return bool(self.scribble.size) and bool((self.scribble >= 0).all())
 
     @property
     def scribbled_labels(self) -> np.ndarray:
@@ -289,5 +257,4 @@ def prepare_shape(
     # the context and geodesic caches sit beside a given feature cache (else the user cache's)
     beside = (lambda kind: None) if cache is None else (
         lambda kind: ArrayCache(cache.folder.parent / f"{cache.folder.name}-{kind}"))
-    return ShapeData(mesh, X, face_areas(V, F), graph, scribble, num_patches, beside("context"), beside("geodesic"),
-                     feature_params, cache)
+    return ShapeData(mesh, X, face_areas(V, F), graph, scribble, num_patches, beside("context"), beside("geodesic"))

@@ -241,7 +241,6 @@ def bench(root: Path, out: Path, *, modes=("train", "test"), cats=None, folds=5,
                            "context_scales": list(params.context_scales),
                            "local_shape": params.local_shape,
                            "label_context": params.label_context,
-                           "stretched_copies": params.stretched_copies,
                            "propagation": asdict(params.propagation),
                            "network": {k: v for k, v in asdict(params.network).items() if k != "threads"}},
               "categories": {}}

@@ -159,98 +159,6 @@ def test_label_context_stage_learns_from_held_out_probabilities(collection, monk
     assert next(x for x in segment_collection(shapes, LABELS, off) if x.model).model.learner.stage2 is None
 
 
-def test_a_stretched_copy_has_the_shapes_faces_and_its_own_signatures(collection):
-    from scipy.linalg import lstsq
-
-    from scribbleseg_core.engine.optimize import STRETCH
-
-    shape = collection[0][0]
-    copy = shape.stretched(0, STRETCH)
-    np.testing.assert_array_equal(copy.mesh.F, shape.mesh.F)
-    assert copy.X.shape == shape.X.shape and not np.allclose(copy.X, shape.X)
-    assert not copy.is_scribbled
-    np.testing.assert_array_equal(shape.stretched(0, STRETCH).mesh.V, copy.mesh.V)  # the same copy every time
-    assert not np.allclose(shape.stretched(1, STRETCH).mesh.V, copy.mesh.V)  # the next copy is another
-    # a stretch about the vertex mean: V' - c = (V - c) S, S symmetric with factors within exp(±STRETCH)
-    c = shape.mesh.V.mean(0)
-    S = lstsq(shape.mesh.V - c, copy.mesh.V - c)[0]
-    np.testing.assert_allclose(copy.mesh.V - c, (shape.mesh.V - c) @ S, atol=1e-9)
-    np.testing.assert_allclose(S, S.T, atol=1e-9)
-    factors = np.linalg.eigvalsh(S)
-    assert np.exp(-STRETCH) - 1e-9 <= factors.min() and factors.max() <= np.exp(STRETCH) + 1e-9
-    assert factors.max() / factors.min() > 1.05  # not a mere scaling, which the signatures do not see
-
-
-def test_stretched_copies_learn_their_shapes_labels_in_their_shapes_fold(collection, monkeypatch):
-    """Every network that learns a scribbled shape learns its copy, with the shape's labels and
-    half the shape's faces each; the held-out network of a shape never sees its copy."""
-    from scribbleseg_core.engine import optimize
-    from scribbleseg_core.engine.network import FaceClassifier
-
-    shapes, _, snaps = collection
-    copies = optimize._stretched_copies(shapes, [s.is_scribbled for s in shapes], PARAMS)
-    assert [o for o, _ in copies] == [0, 1, 2] and PARAMS.stretched_copies == 1
-    everything = shapes + [c for _, c in copies]
-    inputs = [PARAMS.network_input(s) for s in everything]
-    labels = [lab if s.is_scribbled else None for s, lab in zip(shapes, snaps[-1].labels)]
-    fits = {}  # network id -> (indices of its shapes and copies, their labels, their shares)
-    fit = FaceClassifier.fit
-
-    def recording_fit(self, X, y, **kw):
-        ids = [next(i for i, x in enumerate(inputs) if x is xi) for xi in X] if X[0].shape[1] == inputs[0].shape[1] \
-            else None
-        fits[id(self)] = (ids, y, kw["shares"])
-        return fit(self, X, y, **kw)
-
-    monkeypatch.setattr(FaceClassifier, "fit", recording_fit)
-    net = optimize._Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [s.is_scribbled for s in shapes],
-                             lambda i: everything[i].label_context, None, [0, 1, 2])
-    with pytest.raises(ValueError, match="4 inputs for 7 shapes and copies"):
-        net.fit(inputs[:4], labels)
-    net.fit(inputs, labels)
-    np.testing.assert_array_equal(net.fold_of[4:], net.fold_of[:3])
-    ids, y, shares = fits[id(net.main.stage1)]
-    assert ids == [0, 1, 2, 4, 5, 6] and shares == [0.5] * 6
-    for i, yi in zip(ids, y):
-        assert yi is labels[i if i < 4 else i - 4]
-    for f, h in enumerate(net.fold_nets):
-        ids, _, _ = fits[id(h)]
-        assert ids == [i for i in (0, 1, 2, 4, 5, 6) if net.fold_of[i] != f]
-    assert len(fits[id(net.main.stage2)][1]) == 6  # stage 2 learns the copies too
-    with pytest.raises(ValueError, match="only scribbled shapes"):
-        optimize._Networks(inputs[0].shape[1], len(LABELS), PARAMS.network, 0.7, [s.is_scribbled for s in shapes],
-                           None, None, [3])
-
-
-def test_only_fully_labeled_shapes_train_with_stretched_copies(collection, monkeypatch):
-    """Shapes painted with strokes train alone; a shape whose every face is labeled (a .seg
-    read in, a result accepted) trains with its copy, in the alternation and in fit_model."""
-    from scribbleseg_core.engine.shape import ShapeData
-
-    shapes, gts, _ = collection
-    full = prepare_shape(shapes[3].mesh, gts[3], cache=shapes[3].feature_cache)
-    assert full.is_fully_labeled and not shapes[0].is_fully_labeled and not shapes[3].is_fully_labeled
-    copied = []
-    stretched = ShapeData.stretched
-
-    def recording(self, index=0, amplitude=0.35):
-        copied.append(self)
-        return stretched(self, index, amplitude)
-
-    monkeypatch.setattr(ShapeData, "stretched", recording)
-    final = list(segment_collection(shapes[:3] + [full], LABELS, dataclasses.replace(PARAMS, rounds=1)))[-1]
-    assert len(copied) == 1 and copied[0] is full
-    np.testing.assert_array_equal(final.labels[3], gts[3])
-    copied.clear()
-    partial = gts[0].copy()
-    partial[:10] = -1
-    fit_model([shapes[0], full], [partial, gts[3]], LABELS, PARAMS)
-    assert len(copied) == 1 and copied[0] is full
-    copied.clear()
-    list(segment_collection(shapes[:3] + [full], LABELS, dataclasses.replace(PARAMS, rounds=1, stretched_copies=0)))
-    assert copied == []
-
-
 @pytest.mark.parametrize("all_scribbled", [False, True], ids=["two halves", "four folds"])
 def test_two_training_lanes_give_the_networks_of_one_after_another(collection, monkeypatch, all_scribbled):
     """With two threads to use, the fold networks, stage 1 and stage 2 train in two lanes at once
@@ -305,8 +213,7 @@ def test_energy_never_increases_and_the_result_is_the_last_cut(collection, paper
 
 def _record_stage1_fits(monkeypatch, inputs) -> dict:
     """Record every stage-1 fit: network id → {shape index: the labels of its last fit}.
-    `inputs` are the shapes' stage-1 inputs, by which a fit's shapes are recognized (the
-    stretched copies' are not among them, and are left out)."""
+    `inputs` are the shapes' stage-1 inputs, by which a fit's shapes are recognized."""
     from scribbleseg_core.engine.network import FaceClassifier
 
     taught = {}
@@ -314,9 +221,8 @@ def _record_stage1_fits(monkeypatch, inputs) -> dict:
 
     def recording_fit(self, X, y, **kw):
         if X[0].shape[1] == inputs[0].shape[1]:
-            ids = [next((i for i, x in enumerate(inputs) if len(x) == len(xi) and np.array_equal(x, xi)), None)
-                   for xi in X]
-            taught[id(self)] = {i: np.asarray(yi) for i, yi in zip(ids, y) if i is not None}
+            ids = [next(i for i, x in enumerate(inputs) if len(x) == len(xi) and np.array_equal(x, xi)) for xi in X]
+            taught[id(self)] = dict(zip(ids, (np.asarray(yi) for yi in y)))
         return fit(self, X, y, **kw)
 
     monkeypatch.setattr(FaceClassifier, "fit", recording_fit)
@@ -674,9 +580,9 @@ def test_the_first_round_learns_only_the_faces_the_strokes_decide(monkeypatch):
     fit = FaceClassifier.fit
 
     def recording_fit(self, X, y, **kw):
-        ids = [next((i for i, x in enumerate(inputs) if len(x) == len(xi) and np.array_equal(x, xi[:, : x.shape[1]])),
-                    None) for xi in X]  # stage 2's inputs begin with stage 1's; the stretched copies' are left out
-        learned.append({i: np.asarray(yi) < 0 for i, yi in zip(ids, y) if i is not None})
+        ids = [next(i for i, x in enumerate(inputs) if len(x) == len(xi) and np.array_equal(x, xi[:, : x.shape[1]]))
+               for xi in X]  # stage 2's inputs begin with stage 1's
+        learned.append({i: np.asarray(yi) < 0 for i, yi in zip(ids, y)})
         return fit(self, X, y, **kw)
 
     monkeypatch.setattr(FaceClassifier, "fit", recording_fit)

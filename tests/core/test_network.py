@@ -104,17 +104,3 @@ def test_input_dropout_changes_training_only():
     assert (masked.log_proba(X).argmax(1) == y).mean() > 0.95
     with pytest.raises(ValueError, match="input_dropout"):
         NetworkParams(input_dropout=1.0)
-
-
-def test_shares_set_the_faces_each_shape_gives_an_epoch():
-    from scribbleseg_core.engine.network import _EpochSampler
-
-    X = [np.full((1000, 2), float(s)) for s in range(3)]  # each face's input names its shape
-    y = [np.zeros(1000, np.int64), np.zeros(1000, np.int64), np.r_[np.zeros(100, np.int64), -np.ones(900, np.int64)]]
-    data = _EpochSampler(X, y, 400, 0, shares=[1.0, 0.5, 0.5])
-    assert len(data) == 400 + 200 + 100  # the third has only 100 labeled faces
-    Xe, _ = data.draw()
-    assert np.bincount(Xe[:, 0].astype(int)).tolist() == [400, 200, 100]
-    assert len(_EpochSampler(X, y, 400, 0)) == 900
-    with pytest.raises(ValueError, match="2 shares for 3 shapes"):
-        _EpochSampler(X, y, 400, 0, shares=[1.0, 1.0])
