@@ -435,8 +435,9 @@ class MainWindow(QMainWindow):
         if message.startswith("error: "):
             self._on_error(message[7:])
             return
-        if "finished" in message:
-            message += f" (longest frame gap {self.frames.max_gap * 1000:.0f} ms)"
+        if "finished" in message:  # the frame gap after the run's time, before any notice
+            head, sep, notice = message.partition("; ")
+            message = f"{head} (longest frame gap {self.frames.max_gap * 1000:.0f} ms){sep}{notice}"
         self.statusBar().showMessage(message)
 
     # ---------------------------------------------------------------- files

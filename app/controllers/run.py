@@ -102,6 +102,7 @@ class RunController:
         self.started, self.progress, self.step, self.finished = Event(), Event(), Event(), Event()
         self._indices: list[int] = []
         self._edits: dict[int, int] = {}
+        self._one_label: list[tuple[str, str]] = []  # (shape, label) painted with that label only
         self._started_at = 0.0
         self._applied: set[int] = set()
         model.collection_changed.connect(self._on_collection_changed)
@@ -132,6 +133,7 @@ class RunController:
             return "paint at least one stroke before segmenting"
         self.history = EnergyHistory()
         self.changed = set()
+        self._one_label = _painted_with_one_label([m.shapes[i].name for i in usable], scribbles, m.label_set.names)
         meshes = MeshFiles([m.shapes[i].path for i in usable])  # read by the run itself
         m.set_suggestion(None)
         self._start("segmentation", collection_run,
@@ -211,6 +213,8 @@ class RunController:
         self.seconds = time.perf_counter() - self._started_at
         if how == "finished":
             how = f"{self.kind} finished in {self.seconds:.1f} s"
+            if self.kind == "segmentation" and self._one_label:
+                how += "; " + _one_label_notice(self._one_label)
         self.finished.emit(("error: " if error else "") + how)
 
     def _on_collection_changed(self) -> None:
@@ -252,3 +256,32 @@ class RunController:
                 m.set_confidence(index, msg.file_confidence, msg.mean)
         elif isinstance(msg, Suggested):
             m.set_suggestion(Suggestion(self._indices[msg.index], msg.file_faces, msg.file_face))
+
+
+def _painted_with_one_label(names, scribbles, label_names) -> list[tuple[str, str]]:
+    """``(shape name, label name)`` of every shape painted with one label only, in part: the
+    engine gives a painted shape only the labels painted on it, so all of it takes that one
+    (a fully labeled shape of one label is meant so, and not listed). None when the
+    collection has a single label."""
+    import numpy as np
+
+    if len(label_names) < 2:
+        return []
+    found = []
+    for name, s in zip(names, scribbles):
+        if s is None:
+            continue
+        painted = np.unique(s[s >= 0])
+        if len(painted) == 1 and (s < 0).any():
+            found.append((name, label_names[int(painted[0])]))
+    return found
+
+
+def _one_label_notice(shapes: list[tuple[str, str]]) -> str:
+    """What a run's end says of the shapes :func:`_painted_with_one_label` found."""
+    name, label = shapes[0]
+    if len(shapes) == 1:
+        return (f"{name} is painted with {label} only, so all of it comes out {label}: paint its other parts, "
+                "or Accept its result (A) and correct it")
+    return (f"{name} and {len(shapes) - 1} more are painted with one label each, so each comes out all that label: "
+            "paint their other parts, or Accept their results (A) and correct them")

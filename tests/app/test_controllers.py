@@ -112,6 +112,34 @@ def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
     until(lambda: ended, dispatcher)
 
 
+def test_a_run_says_which_painted_shapes_carry_one_label_only(setup, fake_run):
+    """The engine gives a painted shape only the labels painted on it: the run's end names a
+    shape painted with one label, not one painted with two, nor one fully labeled."""
+    from scribbleseg_app.controllers.run import _painted_with_one_label
+
+    model, dispatcher, _ = setup
+    model.paint_faces(0, [0, 1, 2], 0)
+    model.paint_faces(1, [0, 1], 0)
+    model.paint_faces(1, [5, 6], 1)
+    runs = RunController(model, dispatcher, job=Job)
+    ended = []
+    runs.finished.connect(ended.append)
+    runs.segment()
+    fake_run.gate.set()
+    until(lambda: ended, dispatcher)
+    assert ended[0].startswith("segmentation finished in")
+    assert ended[0].endswith("; s0 is painted with a only, so all of it comes out a: paint its other parts, "
+                             "or Accept its result (A) and correct it")
+    full = np.zeros(8, np.int64)
+    assert _painted_with_one_label(["x", "y", "z"], [full, None, np.r_[full[:4], -1]], ["a", "b"]) == [("z", "a")]
+    assert _painted_with_one_label(["z"], [np.r_[full[:4], -1]], ["a"]) == []  # one label in all: meant so
+    ended.clear()
+    model.paint_faces(2, [0], 1)
+    runs.segment()
+    until(lambda: ended, dispatcher)
+    assert "s0 and 1 more are painted with one label each" in ended[0]
+
+
 def test_nothing_to_segment_says_why(setup):
     model, dispatcher, _ = setup
     assert "paint at least one stroke" in RunController(model, dispatcher, job=Job).segment()
