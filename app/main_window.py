@@ -173,6 +173,8 @@ class MainWindow(QMainWindow):
     def _connect(self) -> None:
         m, tools, labels, run = self.model, self.tools, self.labels, self.run_panel
         status = self.statusBar().showMessage
+        # the panel is narrow and long messages are cut: hovering the status bar shows all of it
+        self.statusBar().messageChanged.connect(self.statusBar().setToolTip)
         labels.list.currentRowChanged.connect(self._on_label_row)
         labels.list.itemDoubleClicked.connect(lambda item: self._on_rename(labels.list.row(item)))
         labels.add_button.clicked.connect(self._on_add_label)
@@ -435,9 +437,8 @@ class MainWindow(QMainWindow):
         if message.startswith("error: "):
             self._on_error(message[7:])
             return
-        if "finished" in message:  # the frame gap after the run's time, before any notice
-            head, sep, notice = message.partition("; ")
-            message = f"{head} (longest frame gap {self.frames.max_gap * 1000:.0f} ms){sep}{notice}"
+        if "finished" in message:
+            message += f" (longest frame gap {self.frames.max_gap * 1000:.0f} ms)"
         self.statusBar().showMessage(message)
 
     # ---------------------------------------------------------------- files

@@ -213,8 +213,8 @@ class RunController:
         self.seconds = time.perf_counter() - self._started_at
         if how == "finished":
             how = f"{self.kind} finished in {self.seconds:.1f} s"
-            if self.kind == "segmentation" and self._one_label:
-                how += "; " + _one_label_notice(self._one_label)
+            if self.kind == "segmentation" and self._one_label:  # first: the status bar may cut the end
+                how = f"{_one_label_notice(self._one_label)}; {how}"
         self.finished.emit(("error: " if error else "") + how)
 
     def _on_collection_changed(self) -> None:
@@ -281,7 +281,7 @@ def _one_label_notice(shapes: list[tuple[str, str]]) -> str:
     """What a run's end says of the shapes :func:`_painted_with_one_label` found."""
     name, label = shapes[0]
     if len(shapes) == 1:
-        return (f"{name} is painted with {label} only, so all of it comes out {label}: paint its other parts, "
-                "or Accept its result (A) and correct it")
-    return (f"{name} and {len(shapes) - 1} more are painted with one label each, so each comes out all that label: "
-            "paint their other parts, or Accept their results (A) and correct them")
+        return (f"{name}: painted {label} only, so all {label} (paint its other parts, or Accept its result (A) "
+                "and correct it)")
+    return (f"{name} and {len(shapes) - 1} more: one label painted each, so all that label (paint their other "
+            "parts, or Accept their results (A) and correct them)")

@@ -186,6 +186,7 @@ def test_segment_collection_streams_results_then_export(qtbot, viewport, tmp_pat
     assert w.runs.seconds > 0 and 0 < w.frames.max_gap < w.runs.seconds
     assert w.labels.add_button.isEnabled() and w.labels.delete_button.isEnabled()
     assert "finished in" in w.statusBar().currentMessage()
+    assert w.statusBar().toolTip() == w.statusBar().currentMessage()  # the whole message, where cut
     states = [e.state for e in w.model.shapes]
     assert states.count("labeled") == 3 and states.count("predicted") == 7
     assert len(w.runs.history.steps) >= 2 and w.runs.history.marks[0] == (0, "round 1")

@@ -90,6 +90,7 @@ def fake_run(monkeypatch):
 def test_a_run_streams_its_steps_into_the_model(setup, fake_run):
     model, dispatcher, _ = setup
     model.paint_faces(0, [0, 1, 2], 0)
+    model.paint_faces(0, [5, 6], 1)
     runs = RunController(model, dispatcher, job=Job)
     ended = []
     runs.finished.connect(ended.append)
@@ -127,9 +128,8 @@ def test_a_run_says_which_painted_shapes_carry_one_label_only(setup, fake_run):
     runs.segment()
     fake_run.gate.set()
     until(lambda: ended, dispatcher)
-    assert ended[0].startswith("segmentation finished in")
-    assert ended[0].endswith("; s0 is painted with a only, so all of it comes out a: paint its other parts, "
-                             "or Accept its result (A) and correct it")
+    assert ended[0].startswith("s0: painted a only, so all a (paint its other parts, or Accept its result (A) "
+                               "and correct it); segmentation finished in")
     full = np.zeros(8, np.int64)
     assert _painted_with_one_label(["x", "y", "z"], [full, None, np.r_[full[:4], -1]], ["a", "b"]) == [("z", "a")]
     assert _painted_with_one_label(["z"], [np.r_[full[:4], -1]], ["a"]) == []  # one label in all: meant so
@@ -137,7 +137,7 @@ def test_a_run_says_which_painted_shapes_carry_one_label_only(setup, fake_run):
     model.paint_faces(2, [0], 1)
     runs.segment()
     until(lambda: ended, dispatcher)
-    assert "s0 and 1 more are painted with one label each" in ended[0]
+    assert ended[0].startswith("s0 and 1 more: one label painted each, so all that label")
 
 
 def test_nothing_to_segment_says_why(setup):
