@@ -281,7 +281,7 @@ def _one_label_notice(shapes: list[tuple[str, str]]) -> str:
     """What a run's end says of the shapes :func:`_painted_with_one_label` found."""
     name, label = shapes[0]
     if len(shapes) == 1:
-        return (f"{name}: painted {label} only, so all {label} (paint its other parts, or Accept its result (A) "
-                "and correct it)")
-    return (f"{name} and {len(shapes) - 1} more: one label painted each, so all that label (paint their other "
-            "parts, or Accept their results (A) and correct them)")
+        return (f"{name}: painted {label} only, so all {label}; paint its other parts too, or leave it unpainted, "
+                "run, then Accept (A) its prediction and correct that")
+    return (f"{name} and {len(shapes) - 1} more: one label painted each, so all that label; paint their other "
+            "parts too, or leave them unpainted, run, then Accept (A) their predictions and correct those")

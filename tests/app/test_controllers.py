@@ -128,8 +128,8 @@ def test_a_run_says_which_painted_shapes_carry_one_label_only(setup, fake_run):
     runs.segment()
     fake_run.gate.set()
     until(lambda: ended, dispatcher)
-    assert ended[0].startswith("s0: painted a only, so all a (paint its other parts, or Accept its result (A) "
-                               "and correct it); segmentation finished in")
+    assert ended[0].startswith("s0: painted a only, so all a; paint its other parts too, or leave it unpainted, "
+                               "run, then Accept (A) its prediction and correct that; segmentation finished in")
     full = np.zeros(8, np.int64)
     assert _painted_with_one_label(["x", "y", "z"], [full, None, np.r_[full[:4], -1]], ["a", "b"]) == [("z", "a")]
     assert _painted_with_one_label(["z"], [np.r_[full[:4], -1]], ["a"]) == []  # one label in all: meant so
