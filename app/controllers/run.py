@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+import numpy as np
 from scribbleseg_app.controllers.jobs import Dispatcher, Job, ProcessJob, SpareProcess
 from scribbleseg_app.events import Event
 
@@ -259,12 +260,11 @@ class RunController:
 
 
 def _painted_with_one_label(names, scribbles, label_names) -> list[tuple[str, str]]:
-    """``(shape name, label name)`` of every shape painted with one label only, in part: the
-    engine gives a painted shape only the labels painted on it, so all of it takes that one
-    (a fully labeled shape of one label is meant so, and not listed). None when the
+    """``(shape name, label name)`` of every shape whose strokes (per file face, -1 unpainted;
+    None: no strokes) carry one label only while some faces are unpainted: the engine gives a
+    painted shape only the labels painted on it, so all of it takes that one. A shape whose
+    every face carries the one label is meant so and not listed; nor is any shape when the
     collection has a single label."""
-    import numpy as np
-
     if len(label_names) < 2:
         return []
     found = []
